@@ -1,0 +1,5 @@
+//! pocketsplat-sim: the desktop side of pocketsplat. Mesh import, the float reference renderer, PNG
+//! output, reports and the `pocketsplat` command line live here; everything that runs on the device
+//! lives in `pocketsplat-core`.
+
+pub mod ply;

@@ -1,0 +1,1 @@
+//! PLY mesh import (placeholder; being written).

@@ -1,0 +1,156 @@
+//! The triangle mesh the baker reads: what every importer (PLY, procedural models, scenes) produces.
+
+use std::vec::Vec;
+
+/// An indexed triangle mesh in model units, Y up.
+///
+/// Importers fill it; [`TriMesh::validate`] checks it once before baking.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<[f64; 3]>,
+    /// Triangles as indices into `positions`, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Optional material index per triangle (0..8); `None` means material 0 everywhere.
+    pub materials: Option<Vec<u8>>,
+    /// Optional RGB colour per vertex; baked as RGB565 when present.
+    pub colors: Option<Vec<[u8; 3]>>,
+}
+
+/// What is wrong with a mesh, naming the offending element.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshError {
+    /// The mesh has no vertices or no triangles.
+    Empty {
+        /// Number of vertices.
+        vertices: usize,
+        /// Number of triangles.
+        triangles: usize,
+    },
+    /// A vertex coordinate is NaN or infinite.
+    NonFinite {
+        /// Index of the vertex.
+        vertex: usize,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    IndexOutOfRange {
+        /// Index of the triangle (face).
+        face: usize,
+        /// The offending vertex index.
+        index: u32,
+        /// Number of vertices.
+        vertices: usize,
+    },
+    /// A material index is 8 or more.
+    MaterialOutOfRange {
+        /// Index of the triangle (face).
+        face: usize,
+        /// The offending material index.
+        material: u8,
+    },
+    /// The materials or colours list does not have one entry per triangle / vertex.
+    AttributeCount {
+        /// Expected number of entries.
+        expected: usize,
+        /// Number found.
+        found: usize,
+    },
+    /// Every triangle has zero area: there is no surface to sample.
+    NoArea,
+}
+
+impl core::fmt::Display for MeshError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            MeshError::Empty { vertices, triangles } => {
+                write!(f, "mesh is empty ({vertices} vertices, {triangles} triangles)")
+            }
+            MeshError::NonFinite { vertex } => write!(f, "vertex {vertex} has a NaN or infinite coordinate"),
+            MeshError::IndexOutOfRange { face, index, vertices } => write!(
+                f,
+                "face {face} refers to vertex {index}, but there are only {vertices} vertices"
+            ),
+            MeshError::MaterialOutOfRange { face, material } => {
+                write!(f, "face {face} has material {material}; at most 8 materials (0..=7) are supported")
+            }
+            MeshError::AttributeCount { expected, found } => {
+                write!(f, "attribute list has {found} entries, expected {expected}")
+            }
+            MeshError::NoArea => write!(f, "every triangle has zero area"),
+        }
+    }
+}
+
+impl std::error::Error for MeshError {}
+
+/// Largest material index plus one that a `.tg` file can carry (3 material bits).
+pub const MAX_MATERIALS: u8 = 8;
+
+impl TriMesh {
+    /// Checks the mesh once: finite coordinates, indices in range, attribute counts, some area.
+    ///
+    /// # Errors
+    /// The first problem found, naming the vertex or face.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        if self.positions.is_empty() || self.triangles.is_empty() {
+            return Err(MeshError::Empty { vertices: self.positions.len(), triangles: self.triangles.len() });
+        }
+        if let Some(vertex) = self.positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+            return Err(MeshError::NonFinite { vertex });
+        }
+        let n = self.positions.len();
+        for (face, t) in self.triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
+                return Err(MeshError::IndexOutOfRange { face, index, vertices: n });
+            }
+        }
+        if let Some(m) = &self.materials {
+            if m.len() != self.triangles.len() {
+                return Err(MeshError::AttributeCount { expected: self.triangles.len(), found: m.len() });
+            }
+            if let Some(face) = m.iter().position(|&x| x >= MAX_MATERIALS) {
+                return Err(MeshError::MaterialOutOfRange { face, material: m[face] });
+            }
+        }
+        if let Some(c) = &self.colors {
+            if c.len() != n {
+                return Err(MeshError::AttributeCount { expected: n, found: c.len() });
+            }
+        }
+        if !self.triangles.iter().any(|t| self.area2(t) > 0.0) {
+            return Err(MeshError::NoArea);
+        }
+        Ok(())
+    }
+
+    /// Axis-aligned bounding box of the referenced vertices: (min, max).
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for t in &self.triangles {
+            for &i in t {
+                let p = self.positions[i as usize];
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Number of distinct materials used (1 when there is no material list).
+    pub fn material_count(&self) -> u8 {
+        match &self.materials {
+            None => 1,
+            Some(m) => m.iter().copied().max().map_or(1, |x| x + 1),
+        }
+    }
+
+    /// Twice the area of a triangle (the length of the edge cross product).
+    pub(crate) fn area2(&self, t: &[u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|i| self.positions[i as usize]);
+        let n = super::geom::cross(super::geom::sub(b, a), super::geom::sub(c, a));
+        super::geom::dot(n, n).sqrt()
+    }
+}

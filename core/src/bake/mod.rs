@@ -1,0 +1,9 @@
+//! Baking triangle meshes into hierarchical point files (desktop only, `bake` feature).
+//!
+//! Duguet & Drettakis §4.1: every non-empty cell of the ρ-grid, interior or leaf, gets a sample at the
+//! point of the mesh closest to the cell centre, with the interpolated mesh normal there.
+
+mod geom;
+mod mesh;
+
+pub use mesh::{MeshError, TriMesh, MAX_MATERIALS};

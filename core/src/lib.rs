@@ -1,0 +1,24 @@
+//! # pocketsplat-core
+//!
+//! Everything that runs on the device: the hierarchical point formats (tri-grids, and later QSplat),
+//! their integer-only traversal, the raster and the shading tables. `no_std`, no heap.
+//!
+//! The writers live next to the readers so that each byte layout is defined in one place; they and the
+//! mesh baker sit behind the `bake` feature (std).
+//!
+//! ```
+//! use pocketsplat_core::normal;
+//! // 13-bit normal codes: 8192 directions (Duguet & Drettakis Table 3, level 5).
+//! assert_eq!(normal::NORMAL_COUNT, 8192);
+//! ```
+#![cfg_attr(not(test), no_std)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod crc;
+pub mod normal;
+pub mod tg;
+
+#[cfg(feature = "bake")]
+pub mod bake;

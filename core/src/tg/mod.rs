@@ -1,0 +1,1 @@
+//! Tri-grid files (placeholder).
