@@ -26,7 +26,9 @@ impl Default for Crc32 {
 impl Crc32 {
     /// A fresh digest.
     pub fn new() -> Self {
-        Self { digest: CRC32.digest() }
+        Self {
+            digest: CRC32.digest(),
+        }
     }
     /// Feeds more bytes.
     pub fn update(&mut self, bytes: &[u8]) {

@@ -62,11 +62,23 @@ pub enum MeshError {
 impl core::fmt::Display for MeshError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match *self {
-            MeshError::Empty { vertices, triangles } => {
-                write!(f, "mesh is empty ({vertices} vertices, {triangles} triangles)")
+            MeshError::Empty {
+                vertices,
+                triangles,
+            } => {
+                write!(
+                    f,
+                    "mesh is empty ({vertices} vertices, {triangles} triangles)"
+                )
             }
-            MeshError::NonFinite { vertex } => write!(f, "vertex {vertex} has a NaN or infinite coordinate"),
-            MeshError::IndexOutOfRange { face, index, vertices } => write!(
+            MeshError::NonFinite { vertex } => {
+                write!(f, "vertex {vertex} has a NaN or infinite coordinate")
+            }
+            MeshError::IndexOutOfRange {
+                face,
+                index,
+                vertices,
+            } => write!(
                 f,
                 "face {face} refers to vertex {index}, but there are only {vertices} vertices"
             ),
@@ -93,28 +105,48 @@ impl TriMesh {
     /// The first problem found, naming the vertex or face.
     pub fn validate(&self) -> Result<(), MeshError> {
         if self.positions.is_empty() || self.triangles.is_empty() {
-            return Err(MeshError::Empty { vertices: self.positions.len(), triangles: self.triangles.len() });
+            return Err(MeshError::Empty {
+                vertices: self.positions.len(),
+                triangles: self.triangles.len(),
+            });
         }
-        if let Some(vertex) = self.positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        if let Some(vertex) = self
+            .positions
+            .iter()
+            .position(|p| p.iter().any(|c| !c.is_finite()))
+        {
             return Err(MeshError::NonFinite { vertex });
         }
         let n = self.positions.len();
         for (face, t) in self.triangles.iter().enumerate() {
             if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-                return Err(MeshError::IndexOutOfRange { face, index, vertices: n });
+                return Err(MeshError::IndexOutOfRange {
+                    face,
+                    index,
+                    vertices: n,
+                });
             }
         }
         if let Some(m) = &self.materials {
             if m.len() != self.triangles.len() {
-                return Err(MeshError::AttributeCount { expected: self.triangles.len(), found: m.len() });
+                return Err(MeshError::AttributeCount {
+                    expected: self.triangles.len(),
+                    found: m.len(),
+                });
             }
             if let Some(face) = m.iter().position(|&x| x >= MAX_MATERIALS) {
-                return Err(MeshError::MaterialOutOfRange { face, material: m[face] });
+                return Err(MeshError::MaterialOutOfRange {
+                    face,
+                    material: m[face],
+                });
             }
         }
         if let Some(c) = &self.colors {
             if c.len() != n {
-                return Err(MeshError::AttributeCount { expected: n, found: c.len() });
+                return Err(MeshError::AttributeCount {
+                    expected: n,
+                    found: c.len(),
+                });
             }
         }
         if !self.triangles.iter().any(|t| self.area2(t) > 0.0) {

@@ -4,6 +4,8 @@
 //! point of the mesh closest to the cell centre, with the interpolated mesh normal there.
 
 mod geom;
+mod grid;
 mod mesh;
 
+pub use grid::{bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel};
 pub use mesh::{MeshError, TriMesh, MAX_MATERIALS};

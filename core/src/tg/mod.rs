@@ -1,1 +1,42 @@
-//! Tri-grid files (placeholder).
+//! Tri-grid (`.tg`) files: ρ-grids with a sample at every non-empty cell (Duguet & Drettakis §4).
+//!
+//! The byte layout is specified in `FORMAT.md` beside this file, included below; [`read`] parses it
+//! (no_std, validate once, then no accessor can panic) and `write` produces it (`bake` feature).
+#![doc = include_str!("FORMAT.md")]
+
+pub mod read;
+#[cfg(feature = "bake")]
+pub mod write;
+
+pub use read::{Header, LevelDir, TgError, TriGrid, Verify};
+
+/// File magic.
+pub const MAGIC: [u8; 4] = *b"PSTG";
+/// Current format version.
+pub const VERSION: u16 = 1;
+/// Deepest supported grid (levels 0..=MAX_DEPTH).
+pub const MAX_DEPTH: u8 = 10;
+/// Number of level directory entries a reader keeps.
+pub const MAX_LEVELS: usize = MAX_DEPTH as usize + 1;
+/// Largest number of cells per axis (ρ^depth).
+pub const MAX_CELLS_PER_AXIS: u32 = 1 << 24;
+/// Smallest and largest `block_log2`.
+pub const BLOCK_LOG2_RANGE: core::ops::RangeInclusive<u8> = 9..=16;
+/// Header flag: an RGB565 colour array is present.
+pub const FLAG_COLOR: u16 = 1;
+/// Byte offset of the level directory in block 0.
+pub const DIRECTORY_OFFSET: usize = 48;
+/// Bytes per level directory entry.
+pub const DIRECTORY_ENTRY: usize = 24;
+/// Alignment of every data array.
+pub const ARRAY_ALIGN: u32 = 16;
+
+/// Bytes of one child mask for a given ρ (ρ³ bits, rounded up to 1, 4, 8 or 16 bytes).
+pub const fn mask_bytes(rho: u8) -> u32 {
+    match rho {
+        2 => 1,
+        3 => 4,
+        4 => 8,
+        _ => 16,
+    }
+}

@@ -1,0 +1,453 @@
+//! The ρ-grid baker (Duguet & Drettakis §4): recursive subdivision of the root cube, a sample at every
+//! non-empty cell, levels in breadth-first order. Subtrees below the second level bake in parallel.
+
+use std::vec;
+use std::vec::Vec;
+
+use rayon::prelude::*;
+
+use super::geom::{at_bary, closest_on_triangle, cross, dot, sub, tri_box_overlap, V3};
+use super::mesh::{MeshError, TriMesh};
+use crate::normal;
+
+/// What to bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BakeOptions {
+    /// Cells per axis per subdivision: 2 (octree), 3 (tri-grid), 4 or 5.
+    pub rho: u8,
+    /// Number of subdivisions (ρ^depth cells per axis). The paper's level L is depth L + 1.
+    pub depth: u8,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self { rho: 3, depth: 6 }
+    }
+}
+
+/// One level of a baked grid, in breadth-first order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BakedLevel {
+    /// Attribute per sample: normal code (13 bits) | material << 13.
+    pub attrs: Vec<u16>,
+    /// RGB565 per sample, when the mesh has vertex colours.
+    pub colors: Option<Vec<u16>>,
+    /// Child mask per cell (bit `i + ρ(j + ρk)`), empty at the leaf level.
+    pub masks: Vec<u128>,
+}
+
+/// A baked ρ-grid, ready for [`crate::tg::write::write_tg`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedGrid {
+    /// Cells per axis per subdivision.
+    pub rho: u8,
+    /// Material bits per attribute (0 for one material).
+    pub material_bits: u8,
+    /// Minimum corner of the root cube (exactly representable as f32).
+    pub origin: [f64; 3],
+    /// Side of the root cube (exactly representable as f32).
+    pub side: f64,
+    /// Levels 0..=depth.
+    pub levels: Vec<BakedLevel>,
+}
+
+impl BakedGrid {
+    /// Number of subdivisions.
+    pub fn depth(&self) -> u8 {
+        (self.levels.len() - 1) as u8
+    }
+    /// α per level: the mean number of non-empty children of a cell at that level (§4.3).
+    pub fn alpha(&self, level: usize) -> Option<f64> {
+        let next = self.levels.get(level + 1)?;
+        Some(next.attrs.len() as f64 / self.levels[level].attrs.len() as f64)
+    }
+}
+
+/// Progress of a bake: called with (cells finished, cells in all) at the parallel level.
+pub type BakeProgress<'a> = &'a (dyn Fn(u64, u64) + Sync);
+
+/// Below this level subtrees are independent tasks.
+const PARALLEL_LEVELS: u8 = 2;
+
+/// The mesh prepared once: triangles with area, vertex normals.
+struct Prepared<'m> {
+    mesh: &'m TriMesh,
+    tris: Vec<u32>,
+    vertex_normals: Vec<V3>,
+    material_shift: u8,
+}
+
+impl Prepared<'_> {
+    fn corners(&self, t: u32) -> [V3; 3] {
+        self.mesh.triangles[t as usize].map(|i| self.mesh.positions[i as usize])
+    }
+
+    /// The sample of a cell: the mesh point closest to its centre among the triangles that touch it,
+    /// with the interpolated area-weighted vertex normal there (§4.1 *GetSampleAt*).
+    fn sample(&self, centre: V3, tris: &[u32]) -> (u16, Option<u16>) {
+        let mut best = (f64::INFINITY, tris[0], [1.0, 0.0, 0.0]);
+        for &t in tris {
+            let c = self.corners(t);
+            let w = closest_on_triangle(centre, &c);
+            let d = sub(at_bary(&c, w), centre);
+            let d2 = dot(d, d);
+            if d2 < best.0 {
+                best = (d2, t, w);
+            }
+        }
+        let (_, t, w) = best;
+        let idx = self.mesh.triangles[t as usize];
+        let mut n = [0.0; 3];
+        for k in 0..3 {
+            let vn = self.vertex_normals[idx[k] as usize];
+            for a in 0..3 {
+                n[a] += w[k] * vn[a];
+            }
+        }
+        if dot(n, n) == 0.0 {
+            let c = self.corners(t);
+            n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+        }
+        let material = self
+            .mesh
+            .materials
+            .as_ref()
+            .map_or(0, |m| u16::from(m[t as usize]));
+        let attr = normal::encode(n) | material << self.material_shift;
+        let color = self.mesh.colors.as_ref().map(|cols| {
+            let mut rgb = [0.0f64; 3];
+            for k in 0..3 {
+                let c = cols[idx[k] as usize];
+                for a in 0..3 {
+                    rgb[a] += w[k] * f64::from(c[a]);
+                }
+            }
+            let q = |v: f64, bits: u32| {
+                ((v.clamp(0.0, 255.0) / 255.0) * f64::from((1u32 << bits) - 1)).round() as u16
+            };
+            q(rgb[0], 5) << 11 | q(rgb[1], 6) << 5 | q(rgb[2], 5)
+        });
+        (attr, color)
+    }
+}
+
+/// A cell: level, minimum corner, side.
+#[derive(Clone, Copy)]
+struct Cell {
+    level: u8,
+    min: V3,
+    side: f64,
+}
+
+/// Bakes a mesh into a ρ-grid.
+///
+/// # Errors
+/// [`MeshError`] when the mesh fails [`TriMesh::validate`].
+///
+/// # Panics
+/// When `rho` is outside 2..=5 or `depth` above [`crate::tg::MAX_DEPTH`].
+pub fn bake_grid(
+    mesh: &TriMesh,
+    opts: BakeOptions,
+    progress: Option<BakeProgress<'_>>,
+) -> Result<BakedGrid, MeshError> {
+    assert!((2..=5).contains(&opts.rho), "rho must be 2..=5");
+    assert!(opts.depth <= crate::tg::MAX_DEPTH, "depth too large");
+    mesh.validate()?;
+    let mut vertex_normals = vec![[0.0; 3]; mesh.positions.len()];
+    let mut tris = Vec::with_capacity(mesh.triangles.len());
+    for (t, idx) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = idx.map(|i| mesh.positions[i as usize]);
+        // The cross product's length is twice the area: summing it weights by area.
+        let n = cross(sub(b, a), sub(c, a));
+        if dot(n, n) > 0.0 {
+            tris.push(t as u32);
+            for &i in idx {
+                let v = &mut vertex_normals[i as usize];
+                for k in 0..3 {
+                    v[k] += n[k];
+                }
+            }
+        }
+    }
+    let material_bits = if mesh.material_count() > 1 { 3 } else { 0 };
+    let prep = Prepared {
+        mesh,
+        tris,
+        vertex_normals,
+        material_shift: normal::NORMAL_BITS as u8,
+    };
+
+    // Root cube: the bounding box's largest extent, centred on the box; stored as f32, so round the
+    // corner down and the side up to f32 values that still contain the mesh.
+    let (lo, hi) = mesh.bounds();
+    let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let mut side = f64::from(next_up_f32(extent as f32));
+    let mut origin = [0.0; 3];
+    for a in 0..3 {
+        let c = 0.5 * (lo[a] + hi[a]);
+        origin[a] = f64::from(next_down_f32((c - 0.5 * side) as f32));
+    }
+    while (0..3).any(|a| origin[a] + side < hi[a]) {
+        side = f64::from(next_up_f32(side as f32));
+    }
+
+    let total = u64::from(opts.rho).pow(3 * u32::from(PARALLEL_LEVELS.min(opts.depth)));
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let ctx = Ctx {
+        prep: &prep,
+        opts,
+        progress,
+        done: &done,
+        total,
+    };
+    let root = Cell {
+        level: 0,
+        min: origin,
+        side,
+    };
+    let levels = ctx.build(root, &prep.tris);
+    Ok(BakedGrid {
+        rho: opts.rho,
+        material_bits,
+        origin,
+        side,
+        levels,
+    })
+}
+
+struct Ctx<'a> {
+    prep: &'a Prepared<'a>,
+    opts: BakeOptions,
+    progress: Option<BakeProgress<'a>>,
+    done: &'a std::sync::atomic::AtomicU64,
+    total: u64,
+}
+
+impl Ctx<'_> {
+    /// Bakes the subtree of a non-empty cell; returns its levels (this cell's level first), each in
+    /// breadth-first order — concatenating siblings' results level by level keeps that order.
+    fn build(&self, cell: Cell, tris: &[u32]) -> Vec<BakedLevel> {
+        let rho = usize::from(self.opts.rho);
+        let half = 0.5 * cell.side;
+        let centre = [cell.min[0] + half, cell.min[1] + half, cell.min[2] + half];
+        let (attr, color) = self.prep.sample(centre, tris);
+        let mut here = BakedLevel {
+            attrs: vec![attr],
+            colors: color.map(|c| vec![c]),
+            masks: Vec::new(),
+        };
+        if cell.level == self.opts.depth {
+            return vec![here];
+        }
+
+        // Distribute the triangles among the ρ³ children (exact test only where the triangle's box
+        // spans more than one child).
+        let child_side = cell.side / rho as f64;
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); rho * rho * rho];
+        for &t in tris {
+            let c = self.prep.corners(t);
+            let mut range = [(0usize, 0usize); 3];
+            for a in 0..3 {
+                let lo = c[0][a].min(c[1][a]).min(c[2][a]);
+                let hi = c[0][a].max(c[1][a]).max(c[2][a]);
+                let f = |x: f64| {
+                    (((x - cell.min[a]) / child_side).floor().max(0.0) as usize).min(rho - 1)
+                };
+                range[a] = (f(lo), f(hi));
+            }
+            let single = range.iter().all(|(l, h)| l == h);
+            for k in range[2].0..=range[2].1 {
+                for j in range[1].0..=range[1].1 {
+                    for i in range[0].0..=range[0].1 {
+                        let min = [
+                            cell.min[0] + i as f64 * child_side,
+                            cell.min[1] + j as f64 * child_side,
+                            cell.min[2] + k as f64 * child_side,
+                        ];
+                        let h = 0.5 * child_side;
+                        let cc = [min[0] + h, min[1] + h, min[2] + h];
+                        if single || tri_box_overlap(&c, cc, h) {
+                            lists[i + rho * (j + rho * k)].push(t);
+                        }
+                    }
+                }
+            }
+        }
+        let mut mask = 0u128;
+        let mut children = Vec::new();
+        for (s, list) in lists.iter().enumerate() {
+            if !list.is_empty() {
+                mask |= 1 << s;
+                let (i, j, k) = (s % rho, (s / rho) % rho, s / (rho * rho));
+                let min = [
+                    cell.min[0] + i as f64 * child_side,
+                    cell.min[1] + j as f64 * child_side,
+                    cell.min[2] + k as f64 * child_side,
+                ];
+                children.push((
+                    Cell {
+                        level: cell.level + 1,
+                        min,
+                        side: child_side,
+                    },
+                    s,
+                ));
+            }
+        }
+        here.masks.push(mask);
+        let sub: Vec<Vec<BakedLevel>> = if cell.level < PARALLEL_LEVELS {
+            children
+                .par_iter()
+                .map(|&(c, s)| self.build(c, &lists[s]))
+                .collect()
+        } else {
+            children
+                .iter()
+                .map(|&(c, s)| self.build(c, &lists[s]))
+                .collect()
+        };
+        if cell.level + 1 == PARALLEL_LEVELS.min(self.opts.depth) {
+            // Children of this cell are the parallel tasks: count them, and the empty ones too.
+            let n = (rho * rho * rho) as u64;
+            let d = self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed) + n;
+            if let Some(p) = self.progress {
+                p(d, self.total);
+            }
+        }
+        drop(lists);
+        merge(here, sub)
+    }
+}
+
+/// Concatenates children's levels after this cell's own.
+fn merge(here: BakedLevel, sub: Vec<Vec<BakedLevel>>) -> Vec<BakedLevel> {
+    let depth = sub.iter().map(Vec::len).max().unwrap_or(0);
+    let mut out = Vec::with_capacity(depth + 1);
+    out.push(here);
+    for l in 0..depth {
+        let mut level = BakedLevel::default();
+        let with_color = sub.iter().any(|s| s[l].colors.is_some());
+        let mut colors = Vec::new();
+        let n: usize = sub.iter().map(|s| s[l].attrs.len()).sum();
+        level.attrs.reserve_exact(n);
+        for s in &sub {
+            level.attrs.extend_from_slice(&s[l].attrs);
+            level.masks.extend_from_slice(&s[l].masks);
+            if let Some(c) = &s[l].colors {
+                colors.extend_from_slice(c);
+            }
+        }
+        level.colors = with_color.then_some(colors);
+        out.push(level);
+    }
+    out
+}
+
+fn next_up_f32(x: f32) -> f32 {
+    let r = x.next_up();
+    if x == 0.0 {
+        f32::MIN_POSITIVE
+    } else {
+        r
+    }
+}
+
+fn next_down_f32(x: f32) -> f32 {
+    x.next_down()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tg::{write::write_tg, TriGrid, Verify};
+
+    /// A unit square in the plane y = 0.5 of the cube [0,1]³ (two triangles): every level of a
+    /// tri-grid has α = 9 exactly (Duguet §4.3, Fig. 2).
+    fn plane() -> TriMesh {
+        TriMesh {
+            positions: vec![
+                [0.0, 0.5, 0.0],
+                [1.0, 0.5, 0.0],
+                [1.0, 0.5, 1.0],
+                [0.0, 0.5, 1.0],
+                [0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            triangles: vec![[0, 2, 1], [0, 3, 2], [4, 5, 4]],
+            materials: None,
+            colors: None,
+        }
+    }
+
+    #[test]
+    fn flat_plane_has_alpha_nine() {
+        let g = bake_grid(&plane(), BakeOptions { rho: 3, depth: 4 }, None).unwrap();
+        for l in 0..4 {
+            assert_eq!(g.alpha(l), Some(9.0), "level {l}");
+        }
+        assert_eq!(g.levels[4].attrs.len(), 81 * 81);
+        // Every sample's normal is ±Y.
+        let up = crate::normal::encode([0.0, 1.0, 0.0]);
+        let down = crate::normal::encode([0.0, -1.0, 0.0]);
+        assert!(g
+            .levels
+            .iter()
+            .flat_map(|l| &l.attrs)
+            .all(|&a| a == up || a == down));
+    }
+
+    #[test]
+    fn written_file_reads_back_with_the_same_structure() {
+        let g = bake_grid(&plane(), BakeOptions { rho: 3, depth: 3 }, None).unwrap();
+        let bytes = write_tg(&g, 9).unwrap();
+        let tg = TriGrid::open(&bytes, Verify::Full).unwrap();
+        assert_eq!(tg.header().depth, 3);
+        for (l, level) in g.levels.iter().enumerate() {
+            assert_eq!(tg.level(l as u8).count as usize, level.attrs.len());
+            for (i, &a) in level.attrs.iter().enumerate() {
+                assert_eq!(tg.attr(l as u8, i as u32), a);
+            }
+            for (i, &m) in level.masks.iter().enumerate() {
+                assert_eq!(tg.mask(l as u8, i as u32), m);
+                assert_eq!(u128::from(tg.mask32(l as u8, i as u32)), m);
+            }
+        }
+    }
+
+    #[test]
+    fn octree_and_bigger_rho_bake_and_validate() {
+        for rho in 2..=5 {
+            let g = bake_grid(&plane(), BakeOptions { rho, depth: 2 }, None).unwrap();
+            let bytes = write_tg(&g, 12).unwrap();
+            let tg = TriGrid::open(&bytes, Verify::Full).unwrap();
+            assert_eq!(tg.header().rho, rho);
+            // A plane through the middle: ρ² cells for odd ρ; for even ρ it lies on (or within
+            // rounding of) a cell boundary, which closed cells share: ρ² or 2ρ².
+            let per = u32::from(rho).pow(2);
+            let found = tg.level(1).count;
+            assert!(
+                found == per || (rho % 2 == 0 && found == 2 * per),
+                "rho {rho}: {found}"
+            );
+        }
+    }
+
+    #[test]
+    fn materials_and_colours_are_stored_only_when_used() {
+        let mut m = plane();
+        m.materials = Some(vec![0, 5, 0]);
+        m.colors = Some(vec![[255, 0, 0]; 6]);
+        let g = bake_grid(&m, BakeOptions { rho: 3, depth: 2 }, None).unwrap();
+        assert_eq!(g.material_bits, 3);
+        assert!(g
+            .levels
+            .iter()
+            .flat_map(|l| l.colors.as_ref().unwrap())
+            .all(|&c| c == 0xF800));
+        assert!(g.levels[2].attrs.iter().any(|&a| a >> 13 == 5));
+        let plain = bake_grid(&plane(), BakeOptions { rho: 3, depth: 2 }, None).unwrap();
+        assert_eq!(plain.material_bits, 0);
+        assert!(plain.levels[0].colors.is_none());
+    }
+}

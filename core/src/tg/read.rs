@@ -1,0 +1,545 @@
+//! Reading `.tg` files: a raw layer of bounds-checked little-endian reads, then [`TriGrid`], a view
+//! that is validated once by [`TriGrid::open`] and whose accessors cannot panic afterwards.
+
+use super::{
+    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, DIRECTORY_ENTRY, DIRECTORY_OFFSET, FLAG_COLOR,
+    MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, VERSION,
+};
+use crate::crc::crc32;
+
+/// What is wrong with a `.tg` file. Each variant carries the offending value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TgError {
+    /// Shorter than one block (or than the smallest block).
+    TooShort(usize),
+    /// The first four bytes are not `PSTG`.
+    BadMagic([u8; 4]),
+    /// A version this reader does not know.
+    UnsupportedVersion(u16),
+    /// Unknown bits in the flags.
+    UnsupportedFlags(u16),
+    /// ρ outside 2..=5.
+    UnsupportedRho(u8),
+    /// Depth above [`MAX_DEPTH`](super::MAX_DEPTH) or ρ^depth above 2²⁴.
+    DepthTooLarge(u8),
+    /// Normal bits other than 13.
+    UnsupportedNormalBits(u8),
+    /// Material bits above 3.
+    UnsupportedMaterialBits(u8),
+    /// `block_log2` outside 9..=16.
+    UnsupportedBlockSize(u8),
+    /// The root cube's corner or side is not finite, or the side is not positive.
+    BadRootCube,
+    /// The file length is not the header's block count times the block size.
+    LengthMismatch {
+        /// Bytes the header announces.
+        expected: u64,
+        /// Bytes present.
+        found: u64,
+    },
+    /// The CRC-table block count does not fit the header or the file.
+    BadCrcTable(u32),
+    /// A block's CRC-32 does not match (block 0: the header).
+    BlockCrc(u32),
+    /// A level's array offset is misaligned, overlaps the header or runs past the end.
+    BadArray {
+        /// The level.
+        level: u8,
+    },
+    /// A count does not match what the level above announces (level 0 must hold 1 sample).
+    CountMismatch {
+        /// The level.
+        level: u8,
+        /// The count implied by the level above.
+        expected: u32,
+        /// The count in the directory.
+        found: u32,
+    },
+    /// A child mask is empty or has bits at or above ρ³.
+    BadMask {
+        /// The level of the cell.
+        level: u8,
+        /// Its index in the level.
+        index: u32,
+    },
+    /// A group entry (one pointer per sibling group) is not the running count it stands for.
+    BadGroup {
+        /// The level of the cell.
+        level: u8,
+        /// Its index in the level.
+        index: u32,
+    },
+}
+
+impl core::fmt::Display for TgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            TgError::TooShort(n) => write!(f, "file is {n} bytes, shorter than one block"),
+            TgError::BadMagic(m) => write!(f, "not a .tg file (magic {m:02x?}, expected \"PSTG\")"),
+            TgError::UnsupportedVersion(v) => write!(
+                f,
+                "unsupported .tg version {v} (this reader knows {VERSION})"
+            ),
+            TgError::UnsupportedFlags(x) => write!(f, "unknown header flags {x:#06x}"),
+            TgError::UnsupportedRho(r) => write!(f, "unsupported rho {r} (2..=5)"),
+            TgError::DepthTooLarge(d) => write!(
+                f,
+                "depth {d} is too large (at most {MAX_DEPTH} and rho^depth <= 2^24)"
+            ),
+            TgError::UnsupportedNormalBits(b) => write!(f, "unsupported normal bits {b} (13)"),
+            TgError::UnsupportedMaterialBits(b) => {
+                write!(f, "unsupported material bits {b} (0..=3)")
+            }
+            TgError::UnsupportedBlockSize(b) => {
+                write!(f, "unsupported block size 2^{b} (2^9..=2^16)")
+            }
+            TgError::BadRootCube => write!(f, "root cube is not finite or has no size"),
+            TgError::LengthMismatch { expected, found } => {
+                write!(
+                    f,
+                    "file is {found} bytes but the header announces {expected}"
+                )
+            }
+            TgError::BadCrcTable(t) => write!(f, "CRC table of {t} blocks does not fit"),
+            TgError::BlockCrc(0) => write!(f, "header block fails its CRC check"),
+            TgError::BlockCrc(b) => write!(f, "block {b} fails its CRC check"),
+            TgError::BadArray { level } => {
+                write!(f, "level {level}: an array lies outside the data blocks")
+            }
+            TgError::CountMismatch {
+                level,
+                expected,
+                found,
+            } => {
+                write!(
+                    f,
+                    "level {level}: {found} samples, but the level above announces {expected}"
+                )
+            }
+            TgError::BadMask { level, index } => {
+                write!(f, "level {level}: cell {index} has an invalid child mask")
+            }
+            TgError::BadGroup { level, index } => {
+                write!(
+                    f,
+                    "level {level}: cell {index} has a wrong sibling-group pointer"
+                )
+            }
+        }
+    }
+}
+
+// ---- raw layer: bounds-checked little-endian reads -------------------------------------------------
+
+fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
+    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+fn u8_at(bytes: &[u8], at: usize) -> Option<u8> {
+    bytes.get(at).copied()
+}
+fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
+    take(bytes, at).map(u16::from_le_bytes)
+}
+fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
+    take(bytes, at).map(u32::from_le_bytes)
+}
+fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
+    take(bytes, at).map(f32::from_le_bytes)
+}
+
+/// The fixed fields of a `.tg` header.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Header {
+    /// Format version.
+    pub version: u16,
+    /// Flags ([`FLAG_COLOR`](super::FLAG_COLOR)).
+    pub flags: u16,
+    /// Cells per axis per subdivision: 2 (octree) to 5; 3 is the tri-grid.
+    pub rho: u8,
+    /// Number of subdivisions; levels are `0..=depth`.
+    pub depth: u8,
+    /// Bits of the normal code (13).
+    pub normal_bits: u8,
+    /// Bits of the material index (0..=3).
+    pub material_bits: u8,
+    /// Block size as a power of two.
+    pub block_log2: u8,
+    /// Minimum corner of the root cube, model units.
+    pub origin: [f32; 3],
+    /// Side of the root cube, model units.
+    pub side: f32,
+    /// Blocks in the file.
+    pub blocks: u32,
+    /// CRC-table blocks (1..=T).
+    pub crc_table_blocks: u32,
+}
+
+impl Header {
+    /// Block size in bytes.
+    pub fn block_size(&self) -> usize {
+        1 << self.block_log2
+    }
+    /// Whether samples carry an RGB565 colour.
+    pub fn has_color(&self) -> bool {
+        self.flags & FLAG_COLOR != 0
+    }
+    /// Number of levels (depth + 1).
+    pub fn levels(&self) -> usize {
+        usize::from(self.depth) + 1
+    }
+    /// Bytes per child mask.
+    pub fn mask_bytes(&self) -> u32 {
+        mask_bytes(self.rho)
+    }
+}
+
+/// One level directory entry (see FORMAT.md). Offsets are bytes from the start of the file; 0 = absent.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LevelDir {
+    /// Samples at this level.
+    pub count: u32,
+    /// Attribute array (u16 each).
+    pub attr_off: u32,
+    /// Colour array (u16 RGB565 each), or 0.
+    pub color_off: u32,
+    /// Child-mask array, or 0 at the leaf level.
+    pub mask_off: u32,
+    /// Group array (u32 each), or 0 at the two finest levels.
+    pub group_off: u32,
+}
+
+/// How much of the file [`TriGrid::open`] checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verify {
+    /// Every block's CRC, then the structure (files from SD cards, networks, anything untrusted).
+    Full,
+    /// The header's CRC and the structure, not the data CRCs (a model already checked into flash).
+    Structure,
+}
+
+/// A validated, memory-resident `.tg` file (a flash slice, or a file read into RAM).
+#[derive(Clone, Copy, Debug)]
+pub struct TriGrid<'a> {
+    bytes: &'a [u8],
+    header: Header,
+    levels: [LevelDir; MAX_LEVELS],
+}
+
+/// Parses and checks the header block: everything but the data. Shared by the resident reader and
+/// (later) the streaming one, which has only block 0 at hand.
+pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), TgError> {
+    let short = TgError::TooShort(block0.len());
+    let magic: [u8; 4] = take(block0, 0).ok_or(short)?;
+    if magic != MAGIC {
+        return Err(TgError::BadMagic(magic));
+    }
+    let version = u16_at(block0, 4).ok_or(short)?;
+    if version != VERSION {
+        return Err(TgError::UnsupportedVersion(version));
+    }
+    let block_log2 = u8_at(block0, 12).ok_or(short)?;
+    if !BLOCK_LOG2_RANGE.contains(&block_log2) {
+        return Err(TgError::UnsupportedBlockSize(block_log2));
+    }
+    let block_size = 1usize << block_log2;
+    let block = block0.get(..block_size).ok_or(short)?;
+    let stored_crc = u32_at(block, block_size - 4).ok_or(short)?;
+    if crc32(&block[..block_size - 4]) != stored_crc {
+        return Err(TgError::BlockCrc(0));
+    }
+    let flags = u16_at(block, 6).ok_or(short)?;
+    if flags & !FLAG_COLOR != 0 {
+        return Err(TgError::UnsupportedFlags(flags));
+    }
+    let rho = u8_at(block, 8).ok_or(short)?;
+    if !(2..=5).contains(&rho) {
+        return Err(TgError::UnsupportedRho(rho));
+    }
+    let depth = u8_at(block, 9).ok_or(short)?;
+    if depth > MAX_DEPTH
+        || u32::from(rho)
+            .checked_pow(u32::from(depth))
+            .is_none_or(|c| c > MAX_CELLS_PER_AXIS)
+    {
+        return Err(TgError::DepthTooLarge(depth));
+    }
+    let normal_bits = u8_at(block, 10).ok_or(short)?;
+    if normal_bits != 13 {
+        return Err(TgError::UnsupportedNormalBits(normal_bits));
+    }
+    let material_bits = u8_at(block, 11).ok_or(short)?;
+    if material_bits > 3 {
+        return Err(TgError::UnsupportedMaterialBits(material_bits));
+    }
+    let origin = [
+        f32_at(block, 16).ok_or(short)?,
+        f32_at(block, 20).ok_or(short)?,
+        f32_at(block, 24).ok_or(short)?,
+    ];
+    let side = f32_at(block, 28).ok_or(short)?;
+    if !(origin.iter().all(|c| c.is_finite()) && side.is_finite() && side > 0.0) {
+        return Err(TgError::BadRootCube);
+    }
+    let blocks = u32_at(block, 32).ok_or(short)?;
+    let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
+    let header = Header {
+        version,
+        flags,
+        rho,
+        depth,
+        normal_bits,
+        material_bits,
+        block_log2,
+        origin,
+        side,
+        blocks,
+        crc_table_blocks,
+    };
+    // The table-block CRC list must fit in block 0, and the table must cover every block.
+    let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * header.levels();
+    let list_end = (crc_table_blocks as usize)
+        .checked_mul(4)
+        .and_then(|n| n.checked_add(list_at));
+    let covered = u64::from(crc_table_blocks) << (block_log2 - 2);
+    if list_end.is_none_or(|e| e > block_size - 4)
+        || covered < u64::from(blocks)
+        || u64::from(crc_table_blocks) >= u64::from(blocks)
+    {
+        return Err(TgError::BadCrcTable(crc_table_blocks));
+    }
+    let mut levels = [LevelDir::default(); MAX_LEVELS];
+    for (l, dir) in levels.iter_mut().enumerate().take(header.levels()) {
+        let at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * l;
+        *dir = LevelDir {
+            count: u32_at(block, at).ok_or(short)?,
+            attr_off: u32_at(block, at + 4).ok_or(short)?,
+            color_off: u32_at(block, at + 8).ok_or(short)?,
+            mask_off: u32_at(block, at + 12).ok_or(short)?,
+            group_off: u32_at(block, at + 16).ok_or(short)?,
+        };
+    }
+    check_directory(&header, &levels)?;
+    Ok((header, levels))
+}
+
+/// Every array of every level must be present exactly when the format says, aligned, after the CRC
+/// table and inside the file.
+fn check_directory(h: &Header, levels: &[LevelDir; MAX_LEVELS]) -> Result<(), TgError> {
+    let data_start = (u64::from(h.crc_table_blocks) + 1) << h.block_log2;
+    let file_end = u64::from(h.blocks) << h.block_log2;
+    for (l, dir) in levels.iter().enumerate().take(h.levels()) {
+        let level = l as u8;
+        let bad = TgError::BadArray { level };
+        let arrays = [
+            (dir.attr_off, 2, true),
+            (dir.color_off, 2, h.has_color()),
+            (dir.mask_off, h.mask_bytes(), level < h.depth),
+            (dir.group_off, 4, level + 1 < h.depth),
+        ];
+        for (off, size, present) in arrays {
+            if !present {
+                if off != 0 {
+                    return Err(bad);
+                }
+                continue;
+            }
+            let end = u64::from(off) + u64::from(dir.count) * u64::from(size);
+            if off % ARRAY_ALIGN != 0 || u64::from(off) < data_start || end > file_end {
+                return Err(bad);
+            }
+        }
+    }
+    if levels[0].count != 1 {
+        return Err(TgError::CountMismatch {
+            level: 0,
+            expected: 1,
+            found: levels[0].count,
+        });
+    }
+    Ok(())
+}
+
+impl<'a> TriGrid<'a> {
+    /// Opens a memory-resident `.tg` file, checking it once as [`Verify`] says.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`TgError`] carrying the offending value.
+    pub fn open(bytes: &'a [u8], verify: Verify) -> Result<Self, TgError> {
+        let (header, levels) = parse_header(bytes)?;
+        let expected = u64::from(header.blocks) << header.block_log2;
+        if expected != bytes.len() as u64 {
+            return Err(TgError::LengthMismatch {
+                expected,
+                found: bytes.len() as u64,
+            });
+        }
+        let grid = TriGrid {
+            bytes,
+            header,
+            levels,
+        };
+        if verify == Verify::Full {
+            grid.check_blocks()?;
+        }
+        grid.check_structure()?;
+        Ok(grid)
+    }
+
+    /// Checks the CRC table against the header and every data block against the table.
+    fn check_blocks(&self) -> Result<(), TgError> {
+        let h = &self.header;
+        let bs = h.block_size();
+        let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * h.levels();
+        for t in 1..=h.crc_table_blocks {
+            let want = u32_at(self.bytes, list_at + 4 * (t as usize - 1))
+                .ok_or(TgError::BadCrcTable(t))?;
+            if self.block(t).map(crc32) != Some(want) {
+                return Err(TgError::BlockCrc(t));
+            }
+        }
+        for b in h.crc_table_blocks + 1..h.blocks {
+            let want = u32_at(self.bytes, bs + 4 * b as usize)
+                .ok_or(TgError::BadCrcTable(h.crc_table_blocks))?;
+            if self.block(b).map(crc32) != Some(want) {
+                return Err(TgError::BlockCrc(b));
+            }
+        }
+        Ok(())
+    }
+
+    fn block(&self, b: u32) -> Option<&'a [u8]> {
+        let bs = self.header.block_size();
+        self.bytes.get(b as usize * bs..(b as usize + 1) * bs)
+    }
+
+    /// Recomputes every count and group pointer from the masks (FORMAT.md "Validation").
+    fn check_structure(&self) -> Result<(), TgError> {
+        let h = self.header;
+        let cells = u32::from(h.rho).pow(3);
+        for l in 0..h.depth {
+            let (level, dir) = (l, self.levels[usize::from(l)]);
+            let mut children = 0u32;
+            for i in 0..dir.count {
+                let m = self.mask(l, i);
+                if m == 0 || (cells < 128 && m >> cells != 0) {
+                    return Err(TgError::BadMask { level, index: i });
+                }
+                children = children.saturating_add(m.count_ones());
+            }
+            let found = self.levels[usize::from(l) + 1].count;
+            if children != found {
+                return Err(TgError::CountMismatch {
+                    level: l + 1,
+                    expected: children,
+                    found,
+                });
+            }
+        }
+        // group[p] at level L = first grandchild of p = running count of masks at level L+1.
+        for l in 0..h.depth.saturating_sub(1) {
+            let mut child = 0u32; // index at L+1 of p's first child
+            let mut grandchild = 0u32; // index at L+2 of p's first grandchild
+            for p in 0..self.levels[usize::from(l)].count {
+                if self.group(l, p) != grandchild {
+                    return Err(TgError::BadGroup { level: l, index: p });
+                }
+                let n = self.mask(l, p).count_ones();
+                for c in child..child + n {
+                    grandchild += self.mask(l + 1, c).count_ones();
+                }
+                child += n;
+            }
+        }
+        Ok(())
+    }
+
+    /// The header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The directory entry of a level (all zero beyond the depth).
+    pub fn level(&self, level: u8) -> LevelDir {
+        self.levels
+            .get(usize::from(level))
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// The whole file.
+    pub fn bytes(&self) -> &'a [u8] {
+        self.bytes
+    }
+
+    /// Attribute (normal code and material) of sample `i` at `level`; 0 when out of range.
+    #[inline]
+    pub fn attr(&self, level: u8, i: u32) -> u16 {
+        let off = self.level(level).attr_off as usize + 2 * i as usize;
+        u16_at(self.bytes, off).unwrap_or(0)
+    }
+
+    /// RGB565 colour of sample `i` at `level`, when the file has colours.
+    #[inline]
+    pub fn color(&self, level: u8, i: u32) -> Option<u16> {
+        let dir = self.level(level);
+        if dir.color_off == 0 {
+            return None;
+        }
+        u16_at(self.bytes, dir.color_off as usize + 2 * i as usize)
+    }
+
+    /// Child mask of cell `i` at `level` (bit `s` = slot `s` non-empty); 0 at the leaf level.
+    #[inline]
+    pub fn mask(&self, level: u8, i: u32) -> u128 {
+        let dir = self.level(level);
+        if dir.mask_off == 0 {
+            return 0;
+        }
+        let n = self.header.mask_bytes() as usize;
+        let at = dir.mask_off as usize + n * i as usize;
+        let mut word = [0u8; 16];
+        match self.bytes.get(at..at + n) {
+            Some(src) => word[..n].copy_from_slice(src),
+            None => return 0,
+        }
+        u128::from_le_bytes(word)
+    }
+
+    /// Child mask for ρ ≤ 3, as a `u32` (the traversal's fast path).
+    #[inline]
+    pub fn mask32(&self, level: u8, i: u32) -> u32 {
+        let dir = self.level(level);
+        if dir.mask_off == 0 {
+            return 0;
+        }
+        match self.header.rho {
+            2 => self
+                .bytes
+                .get(dir.mask_off as usize + i as usize)
+                .copied()
+                .map_or(0, u32::from),
+            _ => u32_at(self.bytes, dir.mask_off as usize + 4 * i as usize).unwrap_or(0),
+        }
+    }
+
+    /// Group entry of cell `i` at `level`: the index of its first grandchild at `level + 2`.
+    #[inline]
+    pub fn group(&self, level: u8, i: u32) -> u32 {
+        let dir = self.level(level);
+        if dir.group_off == 0 {
+            return 0;
+        }
+        u32_at(self.bytes, dir.group_off as usize + 4 * i as usize).unwrap_or(0)
+    }
+
+    /// Total number of samples, interior and leaf.
+    pub fn total_samples(&self) -> u64 {
+        self.levels.iter().map(|l| u64::from(l.count)).sum()
+    }
+
+    /// Number of leaf samples (the finest level).
+    pub fn leaf_samples(&self) -> u32 {
+        self.level(self.header.depth).count
+    }
+}
