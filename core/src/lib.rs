@@ -16,8 +16,10 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod camera;
 pub mod crc;
 pub mod normal;
+pub mod shade;
 pub mod tg;
 
 #[cfg(feature = "bake")]

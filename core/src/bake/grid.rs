@@ -47,6 +47,8 @@ pub struct BakedGrid {
     pub origin: [f64; 3],
     /// Side of the root cube (exactly representable as f32).
     pub side: f64,
+    /// Bounding box of the mesh (min, max), rounded outwards to f32.
+    pub bounds: [[f32; 3]; 2],
     /// Levels 0..=depth.
     pub levels: Vec<BakedLevel>,
 }
@@ -180,7 +182,8 @@ pub fn bake_grid(
 
     // Root cube: the bounding box's largest extent, centred on the box; stored as f32, so round the
     // corner down and the side up to f32 values that still contain the mesh.
-    let (lo, hi) = mesh.bounds();
+    let bounds = mesh.bounds_f32();
+    let (lo, hi) = (bounds[0].map(f64::from), bounds[1].map(f64::from));
     let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
     let mut side = f64::from(next_up_f32(extent as f32));
     let mut origin = [0.0; 3];
@@ -210,6 +213,7 @@ pub fn bake_grid(
     Ok(BakedGrid {
         rho: opts.rho,
         material_bits,
+        bounds,
         origin,
         side,
         levels,

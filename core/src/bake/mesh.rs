@@ -171,6 +171,29 @@ impl TriMesh {
         (lo, hi)
     }
 
+    /// The bounding box rounded outwards to f32, as `.tg` files store it: the box whose centre and
+    /// half-diagonal define the views' bounding sphere, for the mesh and its bakes alike.
+    pub fn bounds_f32(&self) -> [[f32; 3]; 2] {
+        let (lo, hi) = self.bounds();
+        let down = |x: f64| {
+            let f = x as f32;
+            if f64::from(f) > x {
+                f.next_down()
+            } else {
+                f
+            }
+        };
+        let up = |x: f64| {
+            let f = x as f32;
+            if f64::from(f) < x {
+                f.next_up()
+            } else {
+                f
+            }
+        };
+        [lo.map(down), hi.map(up)]
+    }
+
     /// Number of distinct materials used (1 when there is no material list).
     pub fn material_count(&self) -> u8 {
         match &self.materials {

@@ -25,7 +25,9 @@ pub const BLOCK_LOG2_RANGE: core::ops::RangeInclusive<u8> = 9..=16;
 /// Header flag: an RGB565 colour array is present.
 pub const FLAG_COLOR: u16 = 1;
 /// Byte offset of the level directory in block 0.
-pub const DIRECTORY_OFFSET: usize = 48;
+pub const DIRECTORY_OFFSET: usize = 72;
+/// Byte offset of the bounding box in block 0.
+pub const BOUNDS_OFFSET: usize = 48;
 /// Bytes per level directory entry.
 pub const DIRECTORY_ENTRY: usize = 24;
 /// Alignment of every data array.

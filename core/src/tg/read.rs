@@ -2,8 +2,8 @@
 //! that is validated once by [`TriGrid::open`] and whose accessors cannot panic afterwards.
 
 use super::{
-    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, DIRECTORY_ENTRY, DIRECTORY_OFFSET, FLAG_COLOR,
-    MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, VERSION,
+    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
+    FLAG_COLOR, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, VERSION,
 };
 use crate::crc::crc32;
 
@@ -29,7 +29,7 @@ pub enum TgError {
     UnsupportedMaterialBits(u8),
     /// `block_log2` outside 9..=16.
     UnsupportedBlockSize(u8),
-    /// The root cube's corner or side is not finite, or the side is not positive.
+    /// The root cube or bounding box is not finite, or the side is not positive.
     BadRootCube,
     /// The file length is not the header's block count times the block size.
     LengthMismatch {
@@ -173,6 +173,8 @@ pub struct Header {
     pub blocks: u32,
     /// CRC-table blocks (1..=T).
     pub crc_table_blocks: u32,
+    /// Bounding box of the mesh, model units: min, max.
+    pub bounds: [[f32; 3]; 2],
 }
 
 impl Header {
@@ -281,6 +283,15 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     if !(origin.iter().all(|c| c.is_finite()) && side.is_finite() && side > 0.0) {
         return Err(TgError::BadRootCube);
     }
+    let mut bounds = [[0.0f32; 3]; 2];
+    for (k, v) in bounds.iter_mut().flatten().enumerate() {
+        *v = f32_at(block, BOUNDS_OFFSET + 4 * k).ok_or(short)?;
+    }
+    if !(bounds.iter().flatten().all(|c| c.is_finite())
+        && (0..3).all(|a| bounds[0][a] <= bounds[1][a]))
+    {
+        return Err(TgError::BadRootCube);
+    }
     let blocks = u32_at(block, 32).ok_or(short)?;
     let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
     let header = Header {
@@ -295,6 +306,7 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         side,
         blocks,
         crc_table_blocks,
+        bounds,
     };
     // The table-block CRC list must fit in block 0, and the table must cover every block.
     let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * header.levels();

@@ -4,8 +4,8 @@ use std::vec;
 use std::vec::Vec;
 
 use super::{
-    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, DIRECTORY_ENTRY, DIRECTORY_OFFSET, FLAG_COLOR,
-    MAGIC, VERSION,
+    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
+    FLAG_COLOR, MAGIC, VERSION,
 };
 use crate::bake::BakedGrid;
 use crate::crc::crc32;
@@ -156,6 +156,10 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
         .enumerate()
     {
         h[16 + 4 * k..20 + 4 * k].copy_from_slice(&(*v as f32).to_le_bytes());
+    }
+    for (k, v) in grid.bounds.iter().flatten().enumerate() {
+        let at = BOUNDS_OFFSET + 4 * k;
+        h[at..at + 4].copy_from_slice(&v.to_le_bytes());
     }
     h[32..36].copy_from_slice(&(blocks as u32).to_le_bytes());
     h[36..40].copy_from_slice(&(t as u32).to_le_bytes());

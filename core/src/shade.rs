@@ -1,0 +1,157 @@
+//! Materials, the light and the Phong model, and the per-frame shading table: an RGB565 colour for
+//! each of the 8192 normal codes and each material present (Duguet §5.5, "pre-rendering indexed
+//! materials"). The table is per-frame setup; per node a sample's colour is one look-up.
+//!
+//! The shading model is Blinn–Phong with a directional light and an infinitely distant viewer (the
+//! view direction is the camera's, the same for every pixel), so that a colour depends on the normal
+//! alone and can be tabulated. The float reference renderer uses the same [`phong`].
+
+use crate::camera::{self, Vec3};
+use crate::normal::{self, NORMAL_COUNT};
+
+/// A Phong material. Colours are linear, 0..=1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Base (diffuse and ambient) colour.
+    pub color: [f32; 3],
+    /// Ambient weight.
+    pub ambient: f32,
+    /// Diffuse weight.
+    pub diffuse: f32,
+    /// Specular weight (white highlights).
+    pub specular: f32,
+    /// Specular exponent.
+    pub shininess: f32,
+}
+
+/// Light grey with a modest highlight: the material of a model that names none.
+pub const DEFAULT_MATERIAL: Material = Material {
+    color: [0.8, 0.8, 0.8],
+    ambient: 0.15,
+    diffuse: 0.8,
+    specular: 0.25,
+    shininess: 20.0,
+};
+
+/// Default light direction: azimuth −40°, elevation 60° (the view convention).
+pub const DEFAULT_LIGHT_AZ_EL: (f64, f64) = (-40.0, 60.0);
+
+/// Most materials a model can carry (3 material bits).
+pub const MAX_MATERIALS: usize = 8;
+
+/// The Phong colour of a unit normal `n`, with unit vectors `l` to the light and `v` to the viewer.
+/// Components are clamped to 0..=1.
+pub fn phong(m: &Material, n: Vec3, l: Vec3, v: Vec3) -> [f64; 3] {
+    let ndl = camera::dot(n, l);
+    let diffuse = f64::from(m.diffuse) * ndl.max(0.0);
+    let spec = if ndl > 0.0 {
+        let h = camera::normalize(camera::add(l, v));
+        let ndh = camera::dot(n, h).max(0.0);
+        f64::from(m.specular) * libm::pow(ndh, f64::from(m.shininess))
+    } else {
+        0.0
+    };
+    let k = f64::from(m.ambient) + diffuse;
+    let c = |i: usize| (f64::from(m.color[i]) * k + spec).clamp(0.0, 1.0);
+    [c(0), c(1), c(2)]
+}
+
+/// Packs a linear 0..=1 colour into RGB565, rounding to nearest.
+pub fn to_rgb565(c: [f64; 3]) -> u16 {
+    let q = |v: f64, max: f64| (v.clamp(0.0, 1.0) * max + 0.5) as u16;
+    q(c[0], 31.0) << 11 | q(c[1], 63.0) << 5 | q(c[2], 31.0)
+}
+
+/// Expands RGB565 to 8-bit RGB by bit replication.
+pub fn rgb565_to_rgb888(c: u16) -> [u8; 3] {
+    let r = ((c >> 11) & 31) as u8;
+    let g = ((c >> 5) & 63) as u8;
+    let b = (c & 31) as u8;
+    [r << 3 | r >> 2, g << 2 | g >> 4, b << 3 | b >> 2]
+}
+
+/// The shading table: `MATERIALS` materials × 8192 normal codes of RGB565 (16 KB per material).
+///
+/// Rebuilt by [`ShadingTable::update`] only when the light, the view direction or a material changed.
+pub struct ShadingTable<const MATERIALS: usize> {
+    colors: [[u16; NORMAL_COUNT]; MATERIALS],
+    key: Option<([f64; 3], [f64; 3], [Material; MATERIALS])>,
+    rebuilds: u32,
+}
+
+impl<const MATERIALS: usize> Default for ShadingTable<MATERIALS> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
+    /// An empty (black) table.
+    pub const fn new() -> Self {
+        Self {
+            colors: [[0; NORMAL_COUNT]; MATERIALS],
+            key: None,
+            rebuilds: 0,
+        }
+    }
+
+    /// Makes the table match `materials`, light direction `l` and viewer direction `v` (unit vectors,
+    /// world space). Does nothing when they are what the table was built for. Returns whether it
+    /// rebuilt.
+    pub fn update(&mut self, materials: &[Material; MATERIALS], l: Vec3, v: Vec3) -> bool {
+        let key = (l, v, *materials);
+        if self.key == Some(key) {
+            return false;
+        }
+        for (row, m) in self.colors.iter_mut().zip(materials) {
+            for (code, out) in row.iter_mut().enumerate() {
+                let n = normal::decode(code as u16).map(f64::from);
+                *out = to_rgb565(phong(m, n, l, v));
+            }
+        }
+        self.key = Some(key);
+        self.rebuilds += 1;
+        true
+    }
+
+    /// The RGB565 colour of an attribute (`normal code | material << 13`). Materials beyond the
+    /// table's count use the last one.
+    #[inline]
+    pub fn color(&self, attr: u16) -> u16 {
+        let m = usize::from(attr >> normal::NORMAL_BITS).min(MATERIALS - 1);
+        self.colors[m][usize::from(attr) & (NORMAL_COUNT - 1)]
+    }
+
+    /// How many times the table was rebuilt.
+    pub fn rebuilds(&self) -> u32 {
+        self.rebuilds
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rgb565_round_trip_of_extremes() {
+        assert_eq!(to_rgb565([1.0, 1.0, 1.0]), 0xFFFF);
+        assert_eq!(rgb565_to_rgb888(0xFFFF), [255, 255, 255]);
+        assert_eq!(to_rgb565([1.0, 0.0, 0.0]), 0xF800);
+    }
+
+    #[test]
+    fn table_is_rebuilt_only_on_change_and_matches_phong() {
+        let mut t = ShadingTable::<1>::new();
+        let l = camera::direction(-40.0, 60.0);
+        let v = [0.0, 0.0, 1.0];
+        assert!(t.update(&[DEFAULT_MATERIAL], l, v));
+        assert!(!t.update(&[DEFAULT_MATERIAL], l, v));
+        assert_eq!(t.rebuilds(), 1);
+        let code = normal::encode(l);
+        let n = normal::decode(code).map(f64::from);
+        assert_eq!(t.color(code), to_rgb565(phong(&DEFAULT_MATERIAL, n, l, v)));
+        // Facing away from the light: ambient only.
+        let away = normal::encode(camera::scale(l, -1.0));
+        assert_eq!(t.color(away), to_rgb565([0.12, 0.12, 0.12]));
+    }
+}
