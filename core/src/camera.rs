@@ -160,6 +160,49 @@ impl Camera {
     }
 }
 
+/// Where a model sits in the world: `world = rotation · (scale · p) + translation`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// Row-major rotation matrix.
+    pub rotation: [[f64; 3]; 3],
+    /// Uniform scale (> 0).
+    pub scale: f64,
+    /// Translation, world units.
+    pub translation: Vec3,
+}
+
+impl Placement {
+    /// The identity placement.
+    pub const IDENTITY: Placement = Placement {
+        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        scale: 1.0,
+        translation: [0.0; 3],
+    };
+
+    /// World position of a model point.
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        let r = &self.rotation;
+        let q = scale(p, self.scale);
+        add([dot(r[0], q), dot(r[1], q), dot(r[2], q)], self.translation)
+    }
+
+    /// Model-frame direction of a world direction (rotation transposed).
+    pub fn to_model_dir(&self, d: Vec3) -> Vec3 {
+        let r = &self.rotation;
+        [
+            r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
+            r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
+            r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
+        ]
+    }
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
 /// a − b.
 pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

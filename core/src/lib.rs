@@ -18,8 +18,11 @@ extern crate std;
 
 pub mod camera;
 pub mod crc;
+pub mod fixed;
 pub mod normal;
+pub mod raster;
 pub mod shade;
+pub mod splat;
 pub mod tg;
 
 #[cfg(feature = "bake")]

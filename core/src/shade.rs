@@ -70,11 +70,19 @@ pub fn rgb565_to_rgb888(c: u16) -> [u8; 3] {
     [r << 3 | r >> 2, g << 2 | g >> 4, b << 3 | b >> 2]
 }
 
+/// Entries of the specular power look-up: `(n·h)^shininess` for `n·h = i / POW_STEPS`.
+const POW_STEPS: usize = 1024;
+
 /// The shading table: `MATERIALS` materials × 8192 normal codes of RGB565 (16 KB per material).
 ///
 /// Rebuilt by [`ShadingTable::update`] only when the light, the view direction or a material changed.
+/// The per-entry work is integer (Q14 normals from [`normal::NORMALS_Q14`], Q16 weights and a
+/// specular-power look-up), so a rebuild costs a few hundred thousand instructions on an FPU-less
+/// core; only the light, half vector and power table are computed in floats.
 pub struct ShadingTable<const MATERIALS: usize> {
     colors: [[u16; NORMAL_COUNT]; MATERIALS],
+    pow_q16: [[u16; POW_STEPS + 1]; MATERIALS],
+    pow_key: [Option<f32>; MATERIALS],
     key: Option<([f64; 3], [f64; 3], [Material; MATERIALS])>,
     rebuilds: u32,
 }
@@ -85,28 +93,63 @@ impl<const MATERIALS: usize> Default for ShadingTable<MATERIALS> {
     }
 }
 
+fn q14(v: Vec3) -> [i32; 3] {
+    v.map(|c| libm::round(c * 16384.0) as i32)
+}
+
+fn q16(x: f32) -> i32 {
+    libm::roundf(x.clamp(0.0, 4.0) * 65536.0) as i32
+}
+
 impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
     /// An empty (black) table.
     pub const fn new() -> Self {
         Self {
             colors: [[0; NORMAL_COUNT]; MATERIALS],
+            pow_q16: [[0; POW_STEPS + 1]; MATERIALS],
+            pow_key: [None; MATERIALS],
             key: None,
             rebuilds: 0,
         }
     }
 
     /// Makes the table match `materials`, light direction `l` and viewer direction `v` (unit vectors,
-    /// world space). Does nothing when they are what the table was built for. Returns whether it
-    /// rebuilt.
+    /// in the model's frame). Does nothing when they are what the table was built for. Returns
+    /// whether it rebuilt.
     pub fn update(&mut self, materials: &[Material; MATERIALS], l: Vec3, v: Vec3) -> bool {
         let key = (l, v, *materials);
         if self.key == Some(key) {
             return false;
         }
-        for (row, m) in self.colors.iter_mut().zip(materials) {
-            for (code, out) in row.iter_mut().enumerate() {
-                let n = normal::decode(code as u16).map(f64::from);
-                *out = to_rgb565(phong(m, n, l, v));
+        let lq = q14(l);
+        let hq = q14(camera::normalize(camera::add(l, v)));
+        for (k, m) in materials.iter().enumerate() {
+            if self.pow_key[k] != Some(m.shininess) {
+                for (i, p) in self.pow_q16[k].iter_mut().enumerate() {
+                    let x = i as f32 / POW_STEPS as f32;
+                    *p = libm::roundf(libm::powf(x, m.shininess) * 65535.0) as u16;
+                }
+                self.pow_key[k] = Some(m.shininess);
+            }
+            let (amb, dif, spc) = (q16(m.ambient), q16(m.diffuse), q16(m.specular));
+            let base = m.color.map(q16);
+            let pow = &self.pow_q16[k];
+            for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
+                let n = n.map(i32::from);
+                let ndl = (n[0] * lq[0] + n[1] * lq[1] + n[2] * lq[2]) >> 14;
+                let light = amb + ((dif * ndl.max(0)) >> 14);
+                let spec = if ndl > 0 {
+                    let ndh = ((n[0] * hq[0] + n[1] * hq[1] + n[2] * hq[2]) >> 14).clamp(0, 16384);
+                    (spc * i32::from(pow[(ndh >> 4) as usize])) >> 16
+                } else {
+                    0
+                };
+                // Channel in Q16, rounded to 5 or 6 bits.
+                let ch = |c: i32, max: i32| {
+                    let lit = ((i64::from(c) * i64::from(light)) >> 16) as i32;
+                    ((lit + spec).clamp(0, 65535) * max + 32768) >> 16
+                };
+                *out = (ch(base[0], 31) << 11 | ch(base[1], 63) << 5 | ch(base[2], 31)) as u16;
             }
         }
         self.key = Some(key);
@@ -147,9 +190,19 @@ mod tests {
         assert!(t.update(&[DEFAULT_MATERIAL], l, v));
         assert!(!t.update(&[DEFAULT_MATERIAL], l, v));
         assert_eq!(t.rebuilds(), 1);
-        let code = normal::encode(l);
-        let n = normal::decode(code).map(f64::from);
-        assert_eq!(t.color(code), to_rgb565(phong(&DEFAULT_MATERIAL, n, l, v)));
+        // Every entry within one step per channel of the float Phong model.
+        for code in 0..NORMAL_COUNT as u16 {
+            let n = normal::decode(code).map(f64::from);
+            let want = to_rgb565(phong(&DEFAULT_MATERIAL, n, l, v));
+            let got = t.color(code);
+            for (shift, mask) in [(11, 31), (5, 63), (0, 31)] {
+                let (a, b) = (
+                    i32::from(want >> shift & mask),
+                    i32::from(got >> shift & mask),
+                );
+                assert!((a - b).abs() <= 1, "code {code}: {want:#06x} vs {got:#06x}");
+            }
+        }
         // Facing away from the light: ambient only.
         let away = normal::encode(camera::scale(l, -1.0));
         assert_eq!(t.color(away), to_rgb565([0.12, 0.12, 0.12]));

@@ -4,11 +4,15 @@
 //! (no_std, validate once, then no accessor can panic) and `write` produces it (`bake` feature).
 #![doc = include_str!("FORMAT.md")]
 
+pub mod frame;
 pub mod read;
+pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;
 
+pub use frame::{FrameError, RenderOptions, TgFrame};
 pub use read::{Header, LevelDir, TgError, TriGrid, Verify};
+pub use traverse::render_tg;
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"PSTG";

@@ -1,4 +1,4 @@
-//! Quantized unit normals: the octahedron with each face split into four, `level` times.
+//! Normal codes: the octahedron with each face split into four, `level` times.
 //!
 //! This is the quantizer of Botsch et al. 2002 that the tri-grid paper uses (Duguet & Drettakis §4.1,
 //! §5.5): the 8 octants give 3 bits, and each quadrisection of a face 2 more, so level 5 gives

@@ -1,0 +1,338 @@
+//! The raster: a 240 × 320 RGB565 framebuffer with a 16-bit depth buffer, splat kernels with a depth
+//! test, and an embedded-graphics [`DrawTarget`] so text and HUD overlays use the ecosystem.
+//!
+//! The buffers are borrowed (`&mut [[u16; W]; H]`) so that firmware can place them in statics and the
+//! desktop on the heap; nothing here allocates.
+#![deny(clippy::float_arithmetic)]
+
+use core::convert::Infallible;
+
+use embedded_graphics_core::draw_target::DrawTarget;
+use embedded_graphics_core::geometry::{Dimensions, OriginDimensions, Size};
+use embedded_graphics_core::pixelcolor::raw::RawU16;
+use embedded_graphics_core::pixelcolor::Rgb565;
+use embedded_graphics_core::prelude::{PixelColor, RawData};
+use embedded_graphics_core::primitives::Rectangle;
+use embedded_graphics_core::Pixel;
+
+use crate::fixed::{ONE_PX_Q4, SUBPIXEL_BITS};
+
+/// Farthest depth: the value the depth buffer is cleared to.
+pub const DEPTH_FAR: u16 = u16::MAX;
+/// Largest splat diameter drawn, pixels (larger ones are clamped and counted).
+pub const MAX_SPLAT_PX: i32 = 64;
+
+/// Splat shape (QSplat §3.2: squares are fastest, circles look better).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Kernel {
+    /// An axis-aligned square.
+    #[default]
+    Square,
+    /// A disc.
+    Round,
+}
+
+/// One splat for the raster: position and diameter in Q4 pixels, depth, colour.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Splat {
+    /// Centre x, Q4 pixels.
+    pub x_q4: i32,
+    /// Centre y, Q4 pixels (down).
+    pub y_q4: i32,
+    /// Diameter, Q4 pixels.
+    pub size_q4: i32,
+    /// Depth, 0 = nearest.
+    pub depth: u16,
+    /// RGB565 colour.
+    pub color: u16,
+}
+
+/// A framebuffer and depth buffer of `W × H` pixels.
+pub struct Framebuffer<'a, const W: usize = 240, const H: usize = 320> {
+    color: &'a mut [[u16; W]; H],
+    depth: &'a mut [[u16; W]; H],
+}
+
+impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
+    /// Wraps colour and depth buffers.
+    pub fn new(color: &'a mut [[u16; W]; H], depth: &'a mut [[u16; W]; H]) -> Self {
+        Self { color, depth }
+    }
+
+    /// Clears colour to `background` and depth to [`DEPTH_FAR`].
+    pub fn clear(&mut self, background: u16) {
+        for row in self.color.iter_mut() {
+            row.fill(background);
+        }
+        for row in self.depth.iter_mut() {
+            row.fill(DEPTH_FAR);
+        }
+    }
+
+    /// The colour rows.
+    pub fn rows(&self) -> &[[u16; W]; H] {
+        self.color
+    }
+
+    /// The depth rows.
+    pub fn depth_rows(&self) -> &[[u16; W]; H] {
+        self.depth
+    }
+
+    /// CRC-32 of the colour buffer (pixels little-endian, row by row): the frame checksum that host
+    /// and firmware compare.
+    pub fn crc(&self) -> u32 {
+        let mut c = crate::crc::Crc32::new();
+        for row in self.color.iter() {
+            c.update_u16_le(row);
+        }
+        c.finish()
+    }
+
+    /// Draws a splat with a depth test; returns the number of pixels written. Pixels are those whose
+    /// centres fall inside the kernel; a splat smaller than a pixel writes the pixel under its centre.
+    #[inline]
+    pub fn splat(&mut self, s: &Splat, kernel: Kernel) -> u32 {
+        let size = s.size_q4.clamp(1, MAX_SPLAT_PX * ONE_PX_Q4);
+        let half = size >> 1;
+        // Pixel i is covered when its centre i + ½ lies in [x − half, x + half).
+        let first = |c: i32| (c - half + (ONE_PX_Q4 / 2 - 1)) >> SUBPIXEL_BITS;
+        let end = |c: i32| (c + half + (ONE_PX_Q4 / 2 - 1)) >> SUBPIXEL_BITS;
+        let (mut x0, mut x1, mut y0, mut y1) =
+            (first(s.x_q4), end(s.x_q4), first(s.y_q4), end(s.y_q4));
+        if x1 <= x0 || y1 <= y0 {
+            (x0, y0) = (s.x_q4 >> SUBPIXEL_BITS, s.y_q4 >> SUBPIXEL_BITS);
+            (x1, y1) = (x0 + 1, y0 + 1);
+        }
+        let (x0, x1) = (x0.max(0), x1.min(W as i32));
+        let (y0, y1) = (y0.max(0), y1.min(H as i32));
+        let mut written = 0;
+        let r2 = i64::from(half) * i64::from(half);
+        for y in y0..y1 {
+            let (crow, drow) = (&mut self.color[y as usize], &mut self.depth[y as usize]);
+            let dy = i64::from((y << SUBPIXEL_BITS) + ONE_PX_Q4 / 2 - s.y_q4);
+            for x in x0..x1 {
+                if kernel == Kernel::Round && size > ONE_PX_Q4 {
+                    let dx = i64::from((x << SUBPIXEL_BITS) + ONE_PX_Q4 / 2 - s.x_q4);
+                    if dx * dx + dy * dy > r2 {
+                        continue;
+                    }
+                }
+                let d = &mut drow[x as usize];
+                if s.depth < *d {
+                    *d = s.depth;
+                    crow[x as usize] = s.color;
+                    written += 1;
+                }
+            }
+        }
+        written
+    }
+}
+
+impl<const W: usize, const H: usize> OriginDimensions for Framebuffer<'_, W, H> {
+    fn size(&self) -> Size {
+        Size::new(W as u32, H as u32)
+    }
+}
+
+impl<const W: usize, const H: usize> DrawTarget for Framebuffer<'_, W, H> {
+    type Color = Rgb565;
+    type Error = Infallible;
+
+    fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(
+        &mut self,
+        pixels: I,
+    ) -> Result<(), Infallible> {
+        for Pixel(p, c) in pixels {
+            if let (Ok(x), Ok(y)) = (usize::try_from(p.x), usize::try_from(p.y)) {
+                if x < W && y < H {
+                    self.color[y][x] = RawU16::from(c).into_inner();
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn fill_contiguous<I: IntoIterator<Item = Rgb565>>(
+        &mut self,
+        area: &Rectangle,
+        colors: I,
+    ) -> Result<(), Infallible> {
+        let clipped = area.intersection(&self.bounding_box());
+        let mut colors = colors.into_iter();
+        let (ax, ay, aw) = (area.top_left.x, area.top_left.y, area.size.width as i32);
+        // Walk the whole area in row order (the iterator covers it), writing only the clipped part.
+        for y in ay..ay + area.size.height as i32 {
+            for x in ax..ax + aw {
+                let Some(c) = colors.next() else {
+                    return Ok(());
+                };
+                if clipped.contains(embedded_graphics_core::geometry::Point::new(x, y)) {
+                    self.color[y as usize][x as usize] = RawU16::from(c).into_inner();
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn fill_solid(&mut self, area: &Rectangle, color: Rgb565) -> Result<(), Infallible> {
+        let area = area.intersection(&self.bounding_box());
+        let Some(br) = area.bottom_right() else {
+            return Ok(());
+        };
+        let raw = RawU16::from(color).into_inner();
+        for row in &mut self.color[area.top_left.y as usize..=br.y as usize] {
+            row[area.top_left.x as usize..=br.x as usize].fill(raw);
+        }
+        Ok(())
+    }
+
+    fn clear(&mut self, color: Rgb565) -> Result<(), Infallible> {
+        let raw = RawU16::from(color).into_inner();
+        for row in self.color.iter_mut() {
+            row.fill(raw);
+        }
+        Ok(())
+    }
+}
+
+/// The RGB565 value of an embedded-graphics colour.
+pub fn raw565<C: PixelColor + Into<Rgb565>>(c: C) -> u16 {
+    RawU16::from(c.into()).into_inner()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::boxed::Box;
+
+    fn buffers() -> (Box<[[u16; 240]; 320]>, Box<[[u16; 240]; 320]>) {
+        (Box::new([[0; 240]; 320]), Box::new([[0; 240]; 320]))
+    }
+
+    #[test]
+    fn square_splat_covers_pixel_centres_and_depth_tests() {
+        let (mut c, mut d) = buffers();
+        let mut fb = Framebuffer::new(&mut c, &mut d);
+        fb.clear(0);
+        // Centre (10, 20), 4 px wide: pixels 8..12 × 18..22.
+        let s = Splat {
+            x_q4: 160,
+            y_q4: 320,
+            size_q4: 64,
+            depth: 100,
+            color: 0xFFFF,
+        };
+        assert_eq!(fb.splat(&s, Kernel::Square), 16);
+        assert_eq!(fb.rows()[18][8], 0xFFFF);
+        assert_eq!(fb.rows()[17][8], 0);
+        assert_eq!(fb.rows()[21][11], 0xFFFF);
+        assert_eq!(fb.rows()[22][11], 0);
+        // Farther: nothing written; nearer: all written.
+        assert_eq!(
+            fb.splat(
+                &Splat {
+                    depth: 200,
+                    color: 1,
+                    ..s
+                },
+                Kernel::Square
+            ),
+            0
+        );
+        assert_eq!(
+            fb.splat(
+                &Splat {
+                    depth: 50,
+                    color: 2,
+                    ..s
+                },
+                Kernel::Square
+            ),
+            16
+        );
+        // Tiny splat: the pixel under the centre.
+        assert_eq!(
+            fb.splat(
+                &Splat {
+                    x_q4: 5 * 16 + 3,
+                    y_q4: 7 * 16 + 15,
+                    size_q4: 4,
+                    depth: 1,
+                    color: 3
+                },
+                Kernel::Square
+            ),
+            1
+        );
+        assert_eq!(fb.rows()[7][5], 3);
+        // Off screen: clipped, no panic.
+        assert_eq!(
+            fb.splat(
+                &Splat {
+                    x_q4: -1000,
+                    y_q4: 99999,
+                    size_q4: 9999,
+                    depth: 0,
+                    color: 3
+                },
+                Kernel::Round
+            ),
+            0
+        );
+    }
+
+    #[test]
+    fn round_splat_is_a_disc() {
+        let (mut c, mut d) = buffers();
+        let mut fb = Framebuffer::new(&mut c, &mut d);
+        fb.clear(0);
+        let n = fb.splat(
+            &Splat {
+                x_q4: 100 * 16,
+                y_q4: 100 * 16,
+                size_q4: 20 * 16,
+                depth: 1,
+                color: 9,
+            },
+            Kernel::Round,
+        );
+        // π·10² ≈ 314 pixels.
+        assert!((300..=330).contains(&n), "{n}");
+        assert_eq!(fb.rows()[100][100], 9);
+        assert_eq!(
+            fb.rows()[91][91],
+            0,
+            "corner of the square is outside the disc"
+        );
+    }
+
+    #[test]
+    fn draw_target_fills_and_clips() {
+        use embedded_graphics_core::geometry::Point;
+        let (mut c, mut d) = buffers();
+        let mut fb = Framebuffer::new(&mut c, &mut d);
+        fb.fill_solid(
+            &Rectangle::new(Point::new(230, 310), Size::new(50, 50)),
+            Rgb565::new(31, 0, 0),
+        )
+        .unwrap();
+        assert_eq!(fb.rows()[319][239], 0xF800);
+        assert_eq!(fb.rows()[309][239], 0);
+        let area = Rectangle::new(Point::new(-1, 0), Size::new(3, 1));
+        fb.fill_contiguous(
+            &area,
+            [
+                Rgb565::new(0, 63, 0),
+                Rgb565::new(0, 0, 31),
+                Rgb565::new(31, 63, 31),
+            ],
+        )
+        .unwrap();
+        assert_eq!(fb.rows()[0][0], 0x001F);
+        assert_eq!(fb.rows()[0][1], 0xFFFF);
+    }
+}

@@ -1,0 +1,90 @@
+//! What a traversal emits and how it is counted: format-neutral, so a new format needs no raster
+//! change (DESIGN.md "The way data flows").
+#![deny(clippy::float_arithmetic)]
+
+use crate::raster::{Framebuffer, Kernel, Splat};
+use crate::shade::ShadingTable;
+
+/// A splat as a traversal emits it: screen position, size, depth and the sample's attribute.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleSplat {
+    /// Centre x, Q4 pixels.
+    pub x_q4: i32,
+    /// Centre y, Q4 pixels (down).
+    pub y_q4: i32,
+    /// Diameter, Q4 pixels.
+    pub size_q4: i32,
+    /// Depth, 0 = nearest.
+    pub depth: u16,
+    /// Normal code | material << 13.
+    pub attr: u16,
+    /// Level of the sample in its hierarchy (0 = root).
+    pub level: u8,
+}
+
+/// Receives splats (a generic parameter of every traversal, so the call is inlined).
+pub trait SplatSink {
+    /// Draws (or records) one splat.
+    fn splat(&mut self, s: &SampleSplat);
+}
+
+/// Counts of one frame's traversal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Stats {
+    /// Nodes (cells) visited.
+    pub nodes_visited: u32,
+    /// Subtrees culled by the frustum or near plane.
+    pub culled: u32,
+    /// Samples skipped as backfacing.
+    pub backfacing: u32,
+    /// Splats emitted.
+    pub splats: u32,
+    /// Deepest level emitted.
+    pub max_level: u8,
+}
+
+/// The usual sink: shade through the table and draw into the framebuffer.
+pub struct ShadedRaster<'f, 'b, 't, const W: usize, const H: usize, const M: usize> {
+    /// The framebuffer.
+    pub fb: &'f mut Framebuffer<'b, W, H>,
+    /// The shading table.
+    pub table: &'t ShadingTable<M>,
+    /// Splat kernel.
+    pub kernel: Kernel,
+}
+
+impl<const W: usize, const H: usize, const M: usize> SplatSink
+    for ShadedRaster<'_, '_, '_, W, H, M>
+{
+    #[inline]
+    fn splat(&mut self, s: &SampleSplat) {
+        let color = self.table.color(s.attr);
+        self.fb.splat(
+            &Splat {
+                x_q4: s.x_q4,
+                y_q4: s.y_q4,
+                size_q4: s.size_q4,
+                depth: s.depth,
+                color,
+            },
+            self.kernel,
+        );
+    }
+}
+
+/// A sink that keeps nothing (for counting and benchmarks of the traversal alone).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NullSink {
+    /// Sum of positions and depths, so the work cannot be optimised away.
+    pub checksum: u32,
+}
+
+impl SplatSink for NullSink {
+    #[inline]
+    fn splat(&mut self, s: &SampleSplat) {
+        self.checksum = self
+            .checksum
+            .wrapping_add(s.x_q4 as u32 ^ (s.y_q4 as u32) << 7 ^ u32::from(s.depth));
+    }
+}

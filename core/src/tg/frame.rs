@@ -1,0 +1,269 @@
+//! Per-frame setup of a tri-grid render (floats allowed here, never per node): the camera becomes
+//! integer tables (Duguet §5.1–5.2) that the traversal only adds and compares.
+//!
+//! The projection of a model point `p` is the homogeneous `(X, Y, W) = A·[p; 1]` with `X/W`, `Y/W` in
+//! pixels and `W` the camera depth, all scaled by one per-frame factor so that
+//! `max(|X|, |Y|) + 320·|W| ≤ 2³⁰` over the root cube (fixed.rs). Because the map is linear:
+//! - a child's centre is its parent's plus `disp[level][slot]` (3 adds, eq. 1–2);
+//! - a cell's extent along each frustum plane function is a per-level constant `ext[level]`, so
+//!   culling and the inside test are a few adds and compares (§5.2);
+//! - the LOD test "projected diameter ≤ cutoff" is `W − ext.w ≥ lod_w[level]` (eq. 3–4: no division);
+//! - only a drawn splat divides, through the reciprocal table.
+
+use super::read::Header;
+use super::MAX_LEVELS;
+use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
+use crate::raster::Kernel;
+
+/// Child slots of the largest ρ the traversal draws (ρ = 3).
+pub const MAX_SLOTS: usize = 27;
+/// Bound on `max(|X|, |Y|) + 320·|W|` over the root cube.
+const RANGE: f64 = (1u64 << 30) as f64;
+
+/// How to render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Stop descending where a cell's projected diameter is at most this many pixels.
+    pub cutoff_px: f32,
+    /// Splat shape.
+    pub kernel: Kernel,
+    /// Skip samples whose normal faces away from every ray of the view.
+    pub backface_culling: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            cutoff_px: 1.0,
+            kernel: Kernel::Square,
+            backface_culling: true,
+        }
+    }
+}
+
+/// Why a frame cannot be set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameError {
+    /// The traversal draws ρ = 2 and 3 only (4 and 5 are for the storage comparison).
+    UnsupportedRho(u8),
+    /// The camera or placement has non-finite numbers, or the cutoff is not positive.
+    BadCamera,
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::UnsupportedRho(r) => write!(f, "rendering supports rho 2 and 3, not {r}"),
+            FrameError::BadCamera => {
+                write!(f, "camera, placement or cutoff is not finite and positive")
+            }
+        }
+    }
+}
+
+/// Half-extents of a cell of one level along the five frustum plane functions, in the frame's
+/// integer units, rounded up with a margin for the displacement rounding.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Extents {
+    /// Along `X` (left plane `X ≥ 0`).
+    pub x: i32,
+    /// Along `Y` (top plane `Y ≥ 0`).
+    pub y: i32,
+    /// Along `W` (near plane `W ≥ near_w`).
+    pub w: i32,
+    /// Along `240·W − X` (right plane).
+    pub r: i32,
+    /// Along `320·W − Y` (bottom plane).
+    pub b: i32,
+}
+
+/// The integer tables of one frame of one tri-grid.
+#[derive(Clone, Debug)]
+pub struct TgFrame {
+    pub(crate) rho: u8,
+    pub(crate) depth: u8,
+    /// Projected homogeneous centre of the root cell.
+    pub(crate) root: [i32; 3],
+    /// `disp[L][s]`: centre of child slot `s` at level `L` minus its parent's centre.
+    pub(crate) disp: [[[i32; 3]; MAX_SLOTS]; MAX_LEVELS],
+    pub(crate) ext: [Extents; MAX_LEVELS],
+    /// Stop at level `L` when `W − ext[L].w ≥ lod_w[L]`.
+    pub(crate) lod_w: [i32; MAX_LEVELS],
+    /// Splat diameter in Q4 pixels = `size_k[L].0 · 2^size_k[L].1 / W`.
+    pub(crate) size_k: [(u32, u32); MAX_LEVELS],
+    pub(crate) near_w: i32,
+    /// Depth = `(W − depth_w0) · depth_scale >> 32`.
+    pub(crate) depth_w0: i32,
+    pub(crate) depth_scale: u64,
+    /// Bit per normal code: backfacing for every ray of the view.
+    pub(crate) backface: [u32; NORMAL_COUNT / 32],
+    pub(crate) kernel: Kernel,
+}
+
+fn row(a: &[f64; 4]) -> Vec3 {
+    [a[0], a[1], a[2]]
+}
+
+fn l1(v: Vec3) -> f64 {
+    libm::fabs(v[0]) + libm::fabs(v[1]) + libm::fabs(v[2])
+}
+
+fn to_i32(x: f64) -> i32 {
+    libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32
+}
+
+impl TgFrame {
+    /// Sets up a frame of the grid described by `header`, placed in the world by `placement`, seen by
+    /// `camera`.
+    ///
+    /// # Errors
+    /// [`FrameError`] for ρ above 3 or non-finite input.
+    pub fn new(
+        header: &Header,
+        placement: &Placement,
+        camera: &Camera,
+        opts: &RenderOptions,
+    ) -> Result<Self, FrameError> {
+        if header.rho > 3 {
+            return Err(FrameError::UnsupportedRho(header.rho));
+        }
+        let cutoff = f64::from(opts.cutoff_px);
+        if !(cutoff > 0.0
+            && cutoff.is_finite()
+            && placement.scale > 0.0
+            && camera.focal_px.is_finite())
+        {
+            return Err(FrameError::BadCamera);
+        }
+        let f = camera.focal_px;
+        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
+        // Rows of (X, Y, W) as functions of the world point minus the eye.
+        let rx = camera::add(
+            camera::scale(camera.right, f),
+            camera::scale(camera.forward, cx),
+        );
+        let ry = camera::add(
+            camera::scale(camera.up, -f),
+            camera::scale(camera.forward, cy),
+        );
+        let rw = camera.forward;
+        // Compose with the placement: world = R·(s·p) + t, so the model-space row is s·Rᵀ·row and the
+        // constant is row·(t − eye).
+        let t_eye = camera::sub(placement.translation, camera.eye);
+        let model_row = |r: Vec3| -> [f64; 4] {
+            let m = camera::scale(placement.to_model_dir(r), placement.scale);
+            [m[0], m[1], m[2], camera::dot(r, t_eye)]
+        };
+        let a = [model_row(rx), model_row(ry), model_row(rw)];
+        let eval =
+            |p: Vec3| -> Vec3 { core::array::from_fn(|k| camera::dot(row(&a[k]), p) + a[k][3]) };
+        let side = f64::from(header.side);
+        let origin = header.origin.map(f64::from);
+        let mut bound = 0.0f64;
+        for corner in 0..8 {
+            let p =
+                core::array::from_fn(|k| origin[k] + if corner >> k & 1 != 0 { side } else { 0.0 });
+            let [x, y, w] = eval(p);
+            bound = bound.max(libm::fabs(x).max(libm::fabs(y)) + 320.0 * libm::fabs(w));
+        }
+        if !(bound.is_finite() && bound > 0.0) {
+            return Err(FrameError::BadCamera);
+        }
+        let scale = RANGE / bound;
+        let centre = origin.map(|o| o + 0.5 * side);
+        let root_f = eval(centre).map(|v| v * scale);
+        let root = root_f.map(to_i32);
+
+        let rho = usize::from(header.rho);
+        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        let mut ext = [Extents::default(); MAX_LEVELS];
+        let mut lod_w = [i32::MAX; MAX_LEVELS];
+        let mut size_k = [(0u32, 0u32); MAX_LEVELS];
+        let near_w = to_i32((camera.near * scale).max(1.0));
+        let world_side = side * placement.scale;
+        let (rxm, rym, rwm) = (row(&a[0]), row(&a[1]), row(&a[2]));
+        let rr = camera::sub(camera::scale(rwm, WIDTH as f64), rxm);
+        let rb = camera::sub(camera::scale(rwm, HEIGHT as f64), rym);
+        let mut cell = side; // model units
+        for level in 0..=usize::from(header.depth) {
+            if level > 0 {
+                let parent = cell;
+                cell = parent / rho as f64;
+                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
+                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
+                    let off: Vec3 = core::array::from_fn(|k| {
+                        ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent
+                    });
+                    *d = [0, 1, 2].map(|k| to_i32(camera::dot(row(&a[k]), off) * scale));
+                }
+            }
+            let h = 0.5 * cell * scale;
+            let margin = level as f64 + 2.0;
+            let e = |r: Vec3| to_i32(libm::ceil(h * l1(r) + margin));
+            ext[level] = Extents {
+                x: e(rxm),
+                y: e(rym),
+                w: e(rwm),
+                r: e(rr),
+                b: e(rb),
+            };
+            // Projected diameter of the cell's bounding sphere: √3·side·f / z (pixels).
+            let k = libm::sqrt(3.0) * cell * (world_side / side) * f * scale;
+            lod_w[level] = to_i32((k / cutoff).max(f64::from(near_w)));
+            let k_q4 = k * 16.0;
+            let mut shift = 0u32;
+            let mut kk = k_q4;
+            while kk >= 2_147_483_648.0 {
+                kk *= 0.5;
+                shift += 1;
+            }
+            size_k[level] = (libm::round(kk) as u32, shift);
+        }
+
+        // Depth: linear in W from the nearest to the farthest point of the root cube.
+        let w_lo = (root_f[2] - f64::from(ext[0].w)).max(f64::from(near_w));
+        let w_hi = (root_f[2] + f64::from(ext[0].w)).max(w_lo + 1.0);
+        let depth_w0 = to_i32(w_lo);
+        let depth_scale = (65534.0 * 4_294_967_296.0 / (w_hi - w_lo + 1.0)) as u64;
+
+        // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
+        // the image corner from the axis plus a 2° margin (splats straddle the border).
+        let mut backface = [0u32; NORMAL_COUNT / 32];
+        if opts.backface_culling {
+            let theta = libm::atan(libm::sqrt(cx * cx + cy * cy) / f) + 2f64.to_radians();
+            if theta < core::f64::consts::FRAC_PI_2 {
+                let fwd = placement.to_model_dir(camera.forward);
+                let fq = fwd.map(|c| libm::round(c * 16384.0) as i32);
+                let threshold = to_i32(libm::sin(theta) * 16384.0 * 16384.0) + 3 * 16384;
+                for (code, n) in NORMALS_Q14.iter().enumerate() {
+                    let d =
+                        i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
+                    if d > threshold {
+                        backface[code / 32] |= 1 << (code % 32);
+                    }
+                }
+            }
+        }
+        Ok(TgFrame {
+            rho: header.rho,
+            depth: header.depth,
+            root,
+            disp,
+            ext,
+            lod_w,
+            size_k,
+            near_w,
+            depth_w0,
+            depth_scale,
+            backface,
+            kernel: opts.kernel,
+        })
+    }
+
+    /// The splat kernel this frame was set up with.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+}
