@@ -52,6 +52,8 @@ pub enum FrameError {
     BadCamera,
 }
 
+impl core::error::Error for FrameError {}
+
 impl core::fmt::Display for FrameError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {

@@ -72,6 +72,8 @@ pub enum TgError {
     },
 }
 
+impl core::error::Error for TgError {}
+
 impl core::fmt::Display for TgError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match *self {
