@@ -20,6 +20,8 @@ pub struct SampleSplat {
     pub attr: u16,
     /// Level of the sample in its hierarchy (0 = root).
     pub level: u8,
+    /// Index of the sample within its level (breadth-first), for tests and streaming.
+    pub index: u32,
 }
 
 /// Receives splats (a generic parameter of every traversal, so the call is inlined).

@@ -136,6 +136,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
             depth,
             attr,
             level,
+            index,
         });
     }
 }

@@ -1,0 +1,170 @@
+//! The integer traversal's projected positions against an f64 projection of the same cells, over
+//! thousands of random cameras including the `close` and `far` extremes, with overflow checks on
+//! (the test profile keeps them): every splat within 0.5 px, none wrapped around, no panic.
+
+use pocketsplat_core::bake::{BakeOptions, TriMesh};
+use pocketsplat_core::camera::{Camera, Placement, Sphere, View, STANDARD_VIEWS};
+use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::splat::{SampleSplat, SplatSink};
+use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
+use pocketsplat_tests::model;
+
+/// f64 centre of every cell, per level in file order (a breadth-first walk of the masks).
+fn cell_centres(tg: &TriGrid<'_>) -> Vec<Vec<[f64; 3]>> {
+    let h = tg.header();
+    let rho = usize::from(h.rho);
+    let side = f64::from(h.side);
+    let mut levels = vec![vec![h.origin.map(|o| f64::from(o) + 0.5 * side)]];
+    let mut cell = side;
+    for l in 0..h.depth {
+        let parent = cell;
+        cell /= rho as f64;
+        let mut next = Vec::with_capacity(tg.level(l + 1).count as usize);
+        for (i, c) in levels[usize::from(l)].iter().enumerate() {
+            let mask = tg.mask(l, i as u32);
+            for s in 0..rho * rho * rho {
+                if mask >> s & 1 == 1 {
+                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
+                    next.push(std::array::from_fn(|k| {
+                        c[k] + ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent
+                    }));
+                }
+            }
+        }
+        levels.push(next);
+    }
+    levels
+}
+
+struct Check<'a> {
+    centres: &'a [Vec<[f64; 3]>],
+    camera: Camera,
+    worst: f64,
+    splats: u64,
+}
+
+impl SplatSink for Check<'_> {
+    fn splat(&mut self, s: &SampleSplat) {
+        let c = self.centres[usize::from(s.level)][s.index as usize];
+        let p = self
+            .camera
+            .project(c)
+            .expect("a drawn splat is in front of the near plane");
+        let err = (f64::from(s.x_q4) / 16.0 - p[0])
+            .abs()
+            .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+        self.worst = self.worst.max(err);
+        self.splats += 1;
+        assert!(
+            s.size_q4 > 0,
+            "a splat of size {} is wrapped around",
+            s.size_q4
+        );
+    }
+}
+
+/// xorshift, so the cameras are the same on every run.
+fn rng(seed: &mut u64) -> f64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn run(tg: &TriGrid<'_>, cameras: usize) -> (f64, u64) {
+    let centres = cell_centres(tg);
+    let sphere = Sphere::from_bounds(tg.header().bounds);
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let (mut worst, mut splats) = (0.0f64, 0u64);
+    let mut views: Vec<(View, f64, f32)> = STANDARD_VIEWS
+        .iter()
+        .map(|(_, v)| (*v, 45.0, 1.0))
+        .collect();
+    while views.len() < cameras {
+        let v = View::new(
+            360.0 * rng(&mut seed) - 180.0,
+            180.0 * rng(&mut seed) - 90.0,
+            0.5 + 30.0 * rng(&mut seed).powi(3),
+        );
+        views.push((
+            v,
+            10.0 + 150.0 * rng(&mut seed),
+            (0.5 + 15.0 * rng(&mut seed)) as f32,
+        ));
+    }
+    for (view, fov, cutoff) in views {
+        let camera = Camera::orbit(sphere, view, fov);
+        let opts = RenderOptions {
+            cutoff_px: cutoff,
+            kernel: Kernel::Square,
+            backface_culling: true,
+        };
+        let frame = TgFrame::new(tg.header(), &Placement::IDENTITY, &camera, &opts).expect("frame");
+        let mut check = Check {
+            centres: &centres,
+            camera,
+            worst: 0.0,
+            splats: 0,
+        };
+        render_tg(tg, &frame, &mut check);
+        assert!(
+            check.worst <= 0.5,
+            "{view:?} fov {fov} cutoff {cutoff}: error {} px",
+            check.worst
+        );
+        worst = worst.max(check.worst);
+        splats += check.splats;
+    }
+    (worst, splats)
+}
+
+fn sphere_mesh(n: usize) -> TriMesh {
+    let mut positions = Vec::new();
+    for i in 0..=n {
+        let th = std::f64::consts::PI * i as f64 / n as f64;
+        for j in 0..2 * n {
+            let ph = std::f64::consts::PI * j as f64 / n as f64;
+            positions.push([th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()]);
+        }
+    }
+    let mut triangles = Vec::new();
+    let v = |i: usize, j: usize| (i * 2 * n + j % (2 * n)) as u32;
+    for i in 0..n {
+        for j in 0..2 * n {
+            triangles.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            triangles.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+        }
+    }
+    TriMesh {
+        positions,
+        triangles,
+        materials: None,
+        colors: None,
+    }
+}
+
+#[test]
+fn sphere_projection_within_half_a_pixel_over_2000_cameras() {
+    let g =
+        pocketsplat_core::bake::bake_grid(&sphere_mesh(64), BakeOptions { rho: 3, depth: 5 }, None)
+            .unwrap();
+    let bytes = pocketsplat_core::tg::write::write_tg(&g, 12).unwrap();
+    let tg = TriGrid::open(&bytes, Verify::Full).unwrap();
+    let (worst, splats) = run(&tg, 2000);
+    eprintln!("sphere: worst {worst:.4} px over {splats} splats");
+}
+
+#[test]
+fn bunny_projection_within_half_a_pixel_octree_and_trigrid() {
+    let Some(path) = model("bun_zipper.ply.gz") else {
+        return;
+    };
+    let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
+    for (rho, depth) in [(3, 6), (2, 9)] {
+        let g = pocketsplat_core::bake::bake_grid(&mesh, BakeOptions { rho, depth }, None).unwrap();
+        let bytes = pocketsplat_core::tg::write::write_tg(&g, 12).unwrap();
+        let tg = TriGrid::open(&bytes, Verify::Full).unwrap();
+        let (worst, splats) = run(&tg, 300);
+        eprintln!("bunny rho {rho} depth {depth}: worst {worst:.4} px over {splats} splats");
+    }
+}
