@@ -209,7 +209,9 @@ mod tests {
     extern crate std;
     use std::boxed::Box;
 
-    fn buffers() -> (Box<[[u16; 240]; 320]>, Box<[[u16; 240]; 320]>) {
+    type Rows = Box<[[u16; 240]; 320]>;
+
+    fn buffers() -> (Rows, Rows) {
         (Box::new([[0; 240]; 320]), Box::new([[0; 240]; 320]))
     }
 

@@ -11,7 +11,7 @@ pub mod traverse;
 pub mod write;
 
 pub use frame::{FrameError, RenderOptions, TgFrame};
-pub use read::{Header, LevelDir, TgError, TriGrid, Verify};
+pub use read::{Header, LevelArrays, LevelDir, TgError, TriGrid, Verify};
 pub use traverse::render_tg;
 
 /// File magic.

@@ -213,6 +213,53 @@ pub struct LevelDir {
     pub group_off: u32,
 }
 
+/// One level's arrays as byte slices, cut once so that per-node reads need no directory look-up.
+/// Out-of-range reads return 0 (they cannot happen in a validated file).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LevelArrays<'a> {
+    /// Attributes, `u16` each.
+    pub attrs: &'a [u8],
+    /// Child masks (`mask_bytes` each), empty at the leaf level.
+    pub masks: &'a [u8],
+    /// Group pointers, `u32` each, empty at the two finest levels.
+    pub groups: &'a [u8],
+}
+
+impl LevelArrays<'_> {
+    /// Attribute of sample `i`.
+    #[inline(always)]
+    pub fn attr(&self, i: u32) -> u16 {
+        let i = 2 * i as usize;
+        match self.attrs.get(i..i + 2) {
+            Some(b) => u16::from_le_bytes([b[0], b[1]]),
+            None => 0,
+        }
+    }
+    /// 32-bit child mask of cell `i` (ρ = 3).
+    #[inline(always)]
+    pub fn mask_u32(&self, i: u32) -> u32 {
+        let i = 4 * i as usize;
+        match self.masks.get(i..i + 4) {
+            Some(b) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            None => 0,
+        }
+    }
+    /// 8-bit child mask of cell `i` (ρ = 2).
+    #[inline(always)]
+    pub fn mask_u8(&self, i: u32) -> u32 {
+        self.masks.get(i as usize).map_or(0, |&b| u32::from(b))
+    }
+    /// Group pointer of cell `i`.
+    #[inline(always)]
+    pub fn group(&self, i: u32) -> u32 {
+        let i = 4 * i as usize;
+        match self.groups.get(i..i + 4) {
+            Some(b) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            None => 0,
+        }
+    }
+}
+
 /// How much of the file [`TriGrid::open`] checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verify {
@@ -484,6 +531,24 @@ impl<'a> TriGrid<'a> {
     /// The whole file.
     pub fn bytes(&self) -> &'a [u8] {
         self.bytes
+    }
+
+    /// The arrays of one level, cut from the file (empty beyond the depth).
+    pub fn arrays(&self, level: u8) -> LevelArrays<'a> {
+        let dir = self.level(level);
+        let cut = |off: u32, size: usize| -> &'a [u8] {
+            if off == 0 {
+                return &[];
+            }
+            let start = off as usize;
+            let end = start.saturating_add(size.saturating_mul(dir.count as usize));
+            self.bytes.get(start..end).unwrap_or(&[])
+        };
+        LevelArrays {
+            attrs: cut(dir.attr_off, 2),
+            masks: cut(dir.mask_off, self.header.mask_bytes() as usize),
+            groups: cut(dir.group_off, 4),
+        }
     }
 
     /// Attribute (normal code and material) of sample `i` at `level`; 0 when out of range.

@@ -3,7 +3,8 @@
 #![deny(clippy::float_arithmetic)]
 
 use super::frame::TgFrame;
-use super::read::TriGrid;
+use super::read::{LevelArrays, TriGrid};
+use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
@@ -14,27 +15,48 @@ use crate::splat::{SampleSplat, SplatSink, Stats};
 /// near plane, stops testing below a cell that is entirely inside, and skips backfacing samples.
 /// The work is bounded by the file: each node is visited at most once.
 pub fn render_tg<S: SplatSink>(grid: &TriGrid<'_>, frame: &TgFrame, sink: &mut S) -> Stats {
+    let mut arrays = [LevelArrays::default(); MAX_LEVELS];
+    for (l, a) in arrays
+        .iter_mut()
+        .enumerate()
+        .take(usize::from(frame.depth) + 1)
+    {
+        *a = grid.arrays(l as u8);
+    }
+    let octree = grid.header().rho == 2;
     let mut w = Walker {
-        grid,
+        arrays,
+        octree,
         frame,
         sink,
         stats: Stats::default(),
     };
     if grid.header().rho == frame.rho && grid.header().depth == frame.depth {
-        let mask = grid.mask32(0, 0);
+        let mask = w.mask(0, 0);
         w.node(0, 0, mask, 0, frame.root, false);
     }
     w.stats
 }
 
 struct Walker<'g, 'f, 's, S> {
-    grid: &'g TriGrid<'g>,
+    arrays: [LevelArrays<'g>; MAX_LEVELS],
+    octree: bool,
     frame: &'f TgFrame,
     sink: &'s mut S,
     stats: Stats,
 }
 
 impl<S: SplatSink> Walker<'_, '_, '_, S> {
+    #[inline(always)]
+    fn mask(&self, level: u8, i: u32) -> u32 {
+        let a = &self.arrays[usize::from(level)];
+        if self.octree {
+            a.mask_u8(i)
+        } else {
+            a.mask_u32(i)
+        }
+    }
+
     /// Visits cell `index` at `level` with child mask `mask`, whose children start at `first_child`
     /// on the next level, with projected centre `c`; `inside` when an ancestor was entirely inside the
     /// frustum (QSplat's flag: no more tests below it).
@@ -71,7 +93,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
         let next = level + 1;
         let has_grandchildren = next < f.depth;
         let mut grand = if has_grandchildren {
-            self.grid.group(level, index)
+            self.arrays[l].group(index)
         } else {
             0
         };
@@ -83,7 +105,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
             m &= m - 1;
             let d = disp[s];
             let cm = if has_grandchildren {
-                self.grid.mask32(next, child)
+                self.mask(next, child)
             } else {
                 0
             };
@@ -107,7 +129,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
         if w < f.near_w {
             return;
         }
-        let attr = self.grid.attr(level, index);
+        let attr = self.arrays[usize::from(level)].attr(index);
         let code = usize::from(attr & 0x1FFF);
         if f.backface[code / 32] >> (code % 32) & 1 != 0 {
             self.stats.backfacing += 1;
