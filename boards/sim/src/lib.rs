@@ -3,3 +3,4 @@
 //! lives in `pocketsplat-core`.
 
 pub mod ply;
+pub mod metrics;
