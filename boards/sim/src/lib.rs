@@ -4,3 +4,4 @@
 
 pub mod ply;
 pub mod metrics;
+pub mod reference;
