@@ -5,3 +5,4 @@
 pub mod ply;
 pub mod metrics;
 pub mod reference;
+pub mod image;
