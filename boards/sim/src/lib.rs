@@ -2,7 +2,14 @@
 //! output, reports and the `pocketsplat` command line live here; everything that runs on the device
 //! lives in `pocketsplat-core`.
 
-pub mod ply;
-pub mod metrics;
-pub mod reference;
+pub mod cmd;
+pub mod demo;
+pub mod fsutil;
 pub mod image;
+pub mod metrics;
+pub mod ply;
+pub mod reference;
+pub mod render;
+pub mod report;
+#[cfg(feature = "window")]
+pub mod window;
