@@ -1,1 +1,189 @@
-fn main() {}
+//! `pocketsplat`: bake scanned meshes into point files, inspect them, render them, report on them.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use pocketsplat_core::raster::Kernel;
+use pocketsplat_sim::{cmd, report};
+
+#[derive(Parser)]
+#[command(
+    name = "pocketsplat",
+    version,
+    about = "Hierarchical point rendering for FPU-less handhelds"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Bake a triangle mesh (PLY, ASCII or binary, optionally gzipped) into a point file.
+    Bake {
+        /// The mesh.
+        mesh: PathBuf,
+        /// Output file.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Cells per axis per subdivision: 2 (octree), 3 (tri-grid), 4, 5.
+        #[arg(long, default_value_t = 3)]
+        rho: u8,
+        /// Subdivisions (ρ^depth cells across); the paper's level L is depth L+1.
+        #[arg(long, default_value_t = 6)]
+        depth: u8,
+        /// Block size in bytes (power of two, 512..=65536); each block carries a CRC.
+        #[arg(long, default_value_t = 4096)]
+        block_size: u32,
+        /// Output format.
+        #[arg(long, default_value = "tg")]
+        format: String,
+    },
+    /// Describe a point file: header, samples and α per level, size per leaf sample.
+    Info {
+        /// The file.
+        file: PathBuf,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render a point file (integer renderer) or a mesh (f64 reference renderer) to a PNG.
+    Render {
+        /// A `.tg` file, or a PLY mesh for the reference renderer.
+        input: PathBuf,
+        /// Output PNG.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// A standard view (std, front, close, far) or AZ,EL,DIST (degrees, degrees, radii).
+        #[arg(long, default_value = "std", allow_hyphen_values = true)]
+        view: String,
+        /// Vertical field of view, degrees.
+        #[arg(long, default_value_t = 45.0)]
+        fov: f64,
+        /// LOD cutoff: largest projected cell drawn as one splat, pixels.
+        #[arg(long, default_value_t = 1.0)]
+        cutoff: f32,
+        /// Splat kernel.
+        #[arg(long, value_enum, default_value_t = KernelArg::Square)]
+        kernel: KernelArg,
+        /// Light direction AZ,EL in degrees (world, same convention as views).
+        #[arg(long, default_value = "-40,60", allow_hyphen_values = true)]
+        light: String,
+        /// Print one JSON object with the frame's statistics on stdout.
+        #[arg(long)]
+        stats_json: bool,
+    },
+    /// Reports measured live.
+    Report {
+        #[command(subcommand)]
+        which: ReportKind,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum KernelArg {
+    Square,
+    Round,
+}
+
+#[derive(Subcommand)]
+enum ReportKind {
+    /// PSNR and coverage against the f64 reference, time and nodes per frame: standard views ×
+    /// cutoffs 1, 2, 4, 8 px, tri-grid (depth 6) and octree (depth 9).
+    Views {
+        /// The mesh (default: the Stanford bunny in $POCKETSPLAT_MODELS or ../shared/models).
+        #[arg(long)]
+        mesh: Option<PathBuf>,
+        /// Timed repeats per frame (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+    },
+    /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
+    Paper {
+        /// Folder with the Stanford models (default: $POCKETSPLAT_MODELS or ../shared/models).
+        #[arg(long)]
+        models: Option<PathBuf>,
+        /// Smaller bakes only (no dragon, no paper level 5).
+        #[arg(long)]
+        quick: bool,
+    },
+}
+
+/// `$POCKETSPLAT_MODELS`, else `../shared/models`.
+fn default_models() -> PathBuf {
+    std::env::var_os("POCKETSPLAT_MODELS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("../shared/models"))
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        None => pocketsplat_sim::demo::run(),
+        Some(Command::Bake {
+            mesh,
+            out,
+            rho,
+            depth,
+            block_size,
+            format,
+        }) => cmd::bake::run(&mesh, &out, rho, depth, block_size, &format),
+        Some(Command::Info { file, json }) => cmd::info::run(&file, json),
+        Some(Command::Render {
+            input,
+            out,
+            view,
+            fov,
+            cutoff,
+            kernel,
+            light,
+            stats_json,
+        }) => {
+            if !(fov > 0.0 && fov < 180.0) {
+                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
+            }
+            if !(cutoff > 0.0 && cutoff.is_finite()) {
+                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
+            }
+            let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
+            let settings = pocketsplat_sim::render::Settings {
+                view: cmd::render::parse_view(&view)?,
+                fov_deg: fov,
+                cutoff_px: cutoff,
+                kernel: match kernel {
+                    KernelArg::Square => Kernel::Square,
+                    KernelArg::Round => Kernel::Round,
+                },
+                light_az_el: (az, el),
+                ..Default::default()
+            };
+            cmd::render::run(&input, &out, &settings, stats_json)
+        }
+        Some(Command::Report {
+            which: ReportKind::Paper { models, quick },
+        }) => {
+            print!(
+                "{}",
+                report::paper::run(&models.unwrap_or_else(default_models), quick)?
+            );
+            Ok(())
+        }
+        Some(Command::Report {
+            which: ReportKind::Views { mesh, repeats },
+        }) => {
+            let mesh = mesh.unwrap_or_else(|| default_models().join("bun_zipper.ply.gz"));
+            print!("{}", report::views::run(&mesh, repeats)?);
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,5 @@
+//! The `pocketsplat` subcommands.
+
+pub mod bake;
+pub mod info;
+pub mod render;

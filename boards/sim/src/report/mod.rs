@@ -1,0 +1,4 @@
+//! `pocketsplat report …`: the paper's tables reproduced live, and (later) error against run time.
+
+pub mod paper;
+pub mod views;
