@@ -71,10 +71,12 @@ fn build_firmware(features: &[&str]) -> PathBuf {
 fn runner() -> Vec<String> {
     let path = workspace_root().join(".cargo/config.toml");
     let config = fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let table = r#"[target.'cfg(all(target_arch = "arm", target_os = "none"))']"#;
     let line = config
         .lines()
+        .skip_while(|l| l.trim() != table)
         .find_map(|l| l.trim().strip_prefix("runner"))
-        .unwrap_or_else(|| panic!("no runner in {}", path.display()));
+        .unwrap_or_else(|| panic!("no runner under {table} in {}", path.display()));
     let command = line
         .trim_start()
         .trim_start_matches('=')
