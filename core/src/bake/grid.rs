@@ -261,6 +261,7 @@ impl Ctx<'_> {
                 range[a] = (f(lo), f(hi));
             }
             let single = range.iter().all(|(l, h)| l == h);
+            let mut placed = false;
             for k in range[2].0..=range[2].1 {
                 for j in range[1].0..=range[1].1 {
                     for i in range[0].0..=range[0].1 {
@@ -273,9 +274,16 @@ impl Ctx<'_> {
                         let cc = [min[0] + h, min[1] + h, min[2] + h];
                         if single || tri_box_overlap(&c, cc, h) {
                             lists[i + rho * (j + rho * k)].push(t);
+                            placed = true;
                         }
                     }
                 }
+            }
+            // A triangle that only touches this cell's boundary can miss every child once the child
+            // boxes are rounded; it still belongs to the cell, so give it the nearest child. This
+            // keeps "every interior cell has a child" true.
+            if !placed {
+                lists[range[0].0 + rho * (range[1].0 + rho * range[2].0)].push(t);
             }
         }
         let mut mask = 0u128;
@@ -381,6 +389,44 @@ mod tests {
             triangles: vec![[0, 2, 1], [0, 3, 2], [4, 5, 4]],
             materials: None,
             colors: None,
+        }
+    }
+
+    #[test]
+    fn mesh_touching_cell_boundaries_keeps_every_interior_cell_non_empty() {
+        // An octahedron: its vertices lie exactly on the root cube's faces (found by the CLI tests).
+        let oct = TriMesh {
+            positions: vec![
+                [1.0, 0.0, 0.0],
+                [-1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, -1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, -1.0],
+            ],
+            triangles: vec![
+                [0, 2, 4],
+                [2, 1, 4],
+                [1, 3, 4],
+                [3, 0, 4],
+                [2, 0, 5],
+                [1, 2, 5],
+                [3, 1, 5],
+                [0, 3, 5],
+            ],
+            materials: None,
+            colors: None,
+        };
+        for rho in 2..=3 {
+            for depth in 1..=5 {
+                let g = bake_grid(&oct, BakeOptions { rho, depth }, None).unwrap();
+                assert!(
+                    g.levels.iter().flat_map(|l| &l.masks).all(|&m| m != 0),
+                    "rho {rho} depth {depth}"
+                );
+                let bytes = write_tg(&g, 12).unwrap();
+                TriGrid::open(&bytes, Verify::Full).unwrap();
+            }
         }
     }
 

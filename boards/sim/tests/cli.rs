@@ -1,0 +1,187 @@
+//! The `pocketsplat` program as a user meets it: exit codes, messages naming the file and element,
+//! no partial output on failure, and the JSON fields other tools rely on.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("pocketsplat runs")
+}
+
+/// A small closed mesh (an octahedron) as ASCII PLY, with an optional replacement line.
+fn octahedron_ply(bad_vertex: Option<&str>) -> String {
+    let mut v = vec!["1 0 0", "-1 0 0", "0 1 0", "0 -1 0", "0 0 1", "0 0 -1"];
+    if let Some(b) = bad_vertex {
+        v[3] = b;
+    }
+    let faces = [
+        "3 0 2 4", "3 2 1 4", "3 1 3 4", "3 3 0 4", "3 2 0 5", "3 1 2 5", "3 3 1 5", "3 0 3 5",
+    ];
+    format!(
+        "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 8\nproperty list uchar int vertex_indices\nend_header\n{}\n{}\n",
+        v.join("\n"),
+        faces.join("\n")
+    )
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn bake_info_render_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oct.ply"), octahedron_ply(None)).unwrap();
+    let out = pocketsplat(
+        &["bake", "oct.ply", "-o", "oct.tg", "--depth", "4"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let out = pocketsplat(&["info", "oct.tg", "--json"], dir.path());
+    assert!(out.status.success());
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        info["file_bytes"].as_u64().unwrap(),
+        std::fs::metadata(dir.path().join("oct.tg")).unwrap().len()
+    );
+    let levels = info["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 5);
+    assert_eq!(levels[0]["depth"], 0);
+    assert_eq!(levels[0]["samples"], 1);
+    assert!(levels[1]["alpha"].as_f64().unwrap() > 1.0);
+    assert!(levels[4]["alpha"].is_null());
+    let total: u64 = levels.iter().map(|l| l["samples"].as_u64().unwrap()).sum();
+    assert_eq!(info["total_samples"].as_u64().unwrap(), total);
+    assert_eq!(info["leaf_samples"], levels[4]["samples"]);
+
+    let out = pocketsplat(
+        &[
+            "render",
+            "oct.tg",
+            "-o",
+            "oct.png",
+            "--view",
+            "30,20,2.5",
+            "--stats-json",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["nodes_visited", "splats", "max_level", "ms"] {
+        assert!(stats[key].is_number(), "{key} missing from {stats}");
+    }
+    assert!(stats["splats"].as_u64().unwrap() > 0);
+    assert!(dir.path().join("oct.png").is_file());
+
+    // The same mesh through the reference renderer.
+    let out = pocketsplat(
+        &["render", "oct.ply", "-o", "ref.png", "--stats-json"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("ref.png").is_file());
+}
+
+#[test]
+fn bad_mesh_names_file_and_element_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("nan.ply"), octahedron_ply(Some("0 nan 0"))).unwrap();
+    let before = files_in(dir.path());
+    let out = pocketsplat(&["bake", "nan.ply", "-o", "nan.tg"], dir.path());
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nan.ply") && err.contains("vertex 3"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        files_in(dir.path()),
+        before,
+        "no output or temporary file is left"
+    );
+
+    let out = pocketsplat(&["bake", "missing.ply", "-o", "x.tg"], dir.path());
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
+}
+
+#[test]
+fn bad_arguments_and_bad_files_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oct.ply"), octahedron_ply(None)).unwrap();
+    std::fs::write(
+        dir.path().join("junk.tg"),
+        b"PSTG but not really a tri-grid file",
+    )
+    .unwrap();
+    for (args, needle) in [
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--rho", "7"][..],
+            "--rho 7",
+        ),
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--block-size", "1000"][..],
+            "--block-size 1000",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--view", "1,2"][..],
+            "--view",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--fov", "200"][..],
+            "--fov",
+        ),
+        (&["info", "junk.tg"][..], "junk.tg"),
+        (&["render", "junk.tg", "-o", "o.png"][..], "junk.tg"),
+    ] {
+        let out = pocketsplat(args, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(!dir.path().join("o.tg").exists() && !dir.path().join("o.png").exists());
+}
+
+#[test]
+fn no_arguments_without_a_display_writes_the_demo_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = pocketsplat(&[], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let png = dir.path().join("pocketsplat-demo.png");
+    let img = pocketsplat_sim::image::read_rgb8_frame(&png).unwrap();
+    let lit = img.iter().filter(|p| **p != [0, 0, 0]).count();
+    assert!(
+        lit > 2000,
+        "the demo frame shows the model ({lit} lit pixels)"
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("pocketsplat-demo.png"));
+}
