@@ -19,6 +19,7 @@ extern crate std;
 pub mod camera;
 pub mod crc;
 pub mod fixed;
+pub mod lod;
 pub mod normal;
 pub mod raster;
 pub mod shade;
