@@ -11,9 +11,12 @@ use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 
 fn bake(rho: u8, depth: u8) -> Vec<u8> {
-    let path = pocketsplat_tests::model("bun_zipper.ply.gz").expect("the bunny is needed for this benchmark");
+    let path = pocketsplat_tests::model("bun_zipper.ply.gz")
+        .expect("the bunny is needed for this benchmark");
     let mesh = pocketsplat_sim::ply::load_mesh(&path).expect("bunny loads");
-    pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho, depth }, 12, false).expect("bake").1
+    pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho, depth }, 12, false)
+        .expect("bake")
+        .1
 }
 
 fn frames(c: &mut Criterion) {
@@ -24,10 +27,16 @@ fn frames(c: &mut Criterion) {
         let tg = TriGrid::open(bytes, Verify::Structure).unwrap();
         for (view_name, view) in STANDARD_VIEWS {
             for cutoff in [1.0f32, 2.0, 4.0, 8.0] {
-                let settings = Settings { view, cutoff_px: cutoff, ..Settings::default() };
+                let settings = Settings {
+                    view,
+                    cutoff_px: cutoff,
+                    ..Settings::default()
+                };
                 let mut fb = FrameBuffers::new();
                 let id = BenchmarkId::new(format!("{name}/{view_name}"), cutoff);
-                group.bench_with_input(id, &settings, |b, s| b.iter(|| render_tg_frame(&tg, s, &mut fb).unwrap().stats));
+                group.bench_with_input(id, &settings, |b, s| {
+                    b.iter(|| render_tg_frame(&tg, s, &mut fb).unwrap().stats)
+                });
             }
         }
     }
@@ -40,7 +49,13 @@ fn frames(c: &mut Criterion) {
         let tg = TriGrid::open(bytes, Verify::Structure).unwrap();
         let settings = Settings::default();
         let camera = settings.camera(tg.header().bounds);
-        let frame = TgFrame::new(tg.header(), &Placement::IDENTITY, &camera, &RenderOptions::default()).unwrap();
+        let frame = TgFrame::new(
+            tg.header(),
+            &Placement::IDENTITY,
+            &camera,
+            &RenderOptions::default(),
+        )
+        .unwrap();
         let nodes = render_tg(&tg, &frame, &mut NullSink::default()).nodes_visited;
         group.throughput(Throughput::Elements(u64::from(nodes)));
         group.bench_function(format!("{name}/std/1px"), |b| {

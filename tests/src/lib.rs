@@ -8,7 +8,10 @@ use std::path::{Path, PathBuf};
 
 /// The workspace root (the folder holding the top-level `Cargo.toml`).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
 }
 
 /// The folder with the Stanford models.
@@ -21,7 +24,9 @@ pub fn models_dir() -> PathBuf {
 
 /// Whether this run is under CI, where nothing may be skipped.
 pub fn under_ci() -> bool {
-    std::env::var("CI").map(|v| v == "true" || v == "1").unwrap_or(false)
+    std::env::var("CI")
+        .map(|v| v == "true" || v == "1")
+        .unwrap_or(false)
 }
 
 /// Path of a model file in [`models_dir`], or `None` (with a note on stderr) when it is missing on a
@@ -34,7 +39,11 @@ pub fn model(name: &str) -> Option<PathBuf> {
     if path.is_file() {
         return Some(path);
     }
-    assert!(!under_ci(), "model {} is missing and CI=true: model tests must not skip", path.display());
+    assert!(
+        !under_ci(),
+        "model {} is missing and CI=true: model tests must not skip",
+        path.display()
+    );
     eprintln!("note: {} not found; test skipped (set POCKETSPLAT_MODELS or run under CI to make this fail)", path.display());
     None
 }

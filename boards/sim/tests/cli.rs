@@ -16,7 +16,7 @@ fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
 
 /// A small closed mesh (an octahedron) as ASCII PLY, with an optional replacement line.
 fn octahedron_ply(bad_vertex: Option<&str>) -> String {
-    let mut v = vec!["1 0 0", "-1 0 0", "0 1 0", "0 -1 0", "0 0 1", "0 0 -1"];
+    let mut v = ["1 0 0", "-1 0 0", "0 1 0", "0 -1 0", "0 0 1", "0 0 -1"];
     if let Some(b) = bad_vertex {
         v[3] = b;
     }

@@ -1,4 +1,4 @@
-//! Quantized unit normals: 13-bit codes (see [`code`]) and their decoded Q14 table.
+//! Quantized unit normals: 13-bit codes (encode and decode below) and their decoded Q14 table.
 //!
 //! The codes are the octahedron with each face split into four, `level` times (Botsch et al. 2002,
 //! Duguet & Drettakis §4.1, §5.5): level 5 gives 8 × 4⁵ = 8192 directions.

@@ -21,7 +21,7 @@ pub enum TgError {
     UnsupportedFlags(u16),
     /// ρ outside 2..=5.
     UnsupportedRho(u8),
-    /// Depth above [`MAX_DEPTH`](super::MAX_DEPTH) or ρ^depth above 2²⁴.
+    /// Depth above [`MAX_DEPTH`] or ρ^depth above 2²⁴.
     DepthTooLarge(u8),
     /// Normal bits other than 13.
     UnsupportedNormalBits(u8),
@@ -155,7 +155,7 @@ fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
 pub struct Header {
     /// Format version.
     pub version: u16,
-    /// Flags ([`FLAG_COLOR`](super::FLAG_COLOR)).
+    /// Flags ([`FLAG_COLOR`]).
     pub flags: u16,
     /// Cells per axis per subdivision: 2 (octree) to 5; 3 is the tri-grid.
     pub rho: u8,
