@@ -23,6 +23,8 @@ pub mod lod;
 pub mod normal;
 pub mod raster;
 pub mod shade;
+#[cfg(feature = "shadows")]
+pub mod shadow;
 pub mod splat;
 pub mod tg;
 

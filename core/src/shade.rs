@@ -81,6 +81,7 @@ const POW_STEPS: usize = 1024;
 /// core; only the light, half vector and power table are computed in floats.
 pub struct ShadingTable<const MATERIALS: usize> {
     colors: [[u16; NORMAL_COUNT]; MATERIALS],
+    ambient: [u16; MATERIALS],
     pow_q16: [[u16; POW_STEPS + 1]; MATERIALS],
     pow_key: [Option<f32>; MATERIALS],
     key: Option<([f64; 3], [f64; 3], [Material; MATERIALS])>,
@@ -106,6 +107,7 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
     pub const fn new() -> Self {
         Self {
             colors: [[0; NORMAL_COUNT]; MATERIALS],
+            ambient: [0; MATERIALS],
             pow_q16: [[0; POW_STEPS + 1]; MATERIALS],
             pow_key: [None; MATERIALS],
             key: None,
@@ -133,6 +135,11 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
             }
             let (amb, dif, spc) = (q16(m.ambient), q16(m.diffuse), q16(m.specular));
             let base = m.color.map(q16);
+            let shade = |c: i32, max: i32| {
+                (((i64::from(c) * i64::from(amb)) >> 16).clamp(0, 65535) as i32 * max + 32768) >> 16
+            };
+            self.ambient[k] =
+                (shade(base[0], 31) << 11 | shade(base[1], 63) << 5 | shade(base[2], 31)) as u16;
             let pow = &self.pow_q16[k];
             for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
                 let n = n.map(i32::from);
@@ -163,6 +170,12 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
     pub fn color(&self, attr: u16) -> u16 {
         let m = usize::from(attr >> normal::NORMAL_BITS).min(MATERIALS - 1);
         self.colors[m][usize::from(attr) & (NORMAL_COUNT - 1)]
+    }
+
+    /// The colour of an attribute in shadow: its material's ambient term.
+    #[inline]
+    pub fn shadowed(&self, attr: u16) -> u16 {
+        self.ambient[usize::from(attr >> normal::NORMAL_BITS).min(MATERIALS - 1)]
     }
 
     /// How many times the table was rebuilt.

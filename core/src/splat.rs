@@ -22,6 +22,8 @@ pub struct SampleSplat {
     pub level: u8,
     /// Index of the sample within its level (breadth-first), for tests and streaming.
     pub index: u32,
+    /// In shadow: shaded with the material's ambient term only.
+    pub shadowed: bool,
 }
 
 /// Receives splats (a generic parameter of every traversal, so the call is inlined).
@@ -42,6 +44,8 @@ pub struct Stats {
     pub backfacing: u32,
     /// Splats emitted.
     pub splats: u32,
+    /// Splats drawn in shadow.
+    pub shadowed: u32,
     /// Deepest level emitted.
     pub max_level: u8,
 }
@@ -61,7 +65,11 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
 {
     #[inline]
     fn splat(&mut self, s: &SampleSplat) {
-        let color = self.table.color(s.attr);
+        let color = if s.shadowed {
+            self.table.shadowed(s.attr)
+        } else {
+            self.table.color(s.attr)
+        };
         self.fb.splat(
             &Splat {
                 x_q4: s.x_q4,

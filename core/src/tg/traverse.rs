@@ -1,12 +1,79 @@
 //! The integer-only tri-grid traversal (Duguet §5.1–5.2): per node a few adds and compares, per drawn
 //! splat one reciprocal look-up and three multiplies. No floats here.
+//!
+//! The walk is generic over [`ShadowHooks`]: without shadows the hooks are zero-sized and compile
+//! away; with one-pass shadows (§5.3) they carry each node's light-space position (3 more adds), order
+//! the children so that cells nearer the light come first, and test and fill the shadow map as
+//! samples are drawn.
 #![deny(clippy::float_arithmetic)]
 
-use super::frame::TgFrame;
+use super::frame::{TgFrame, MAX_SLOTS};
 use super::read::{LevelArrays, TriGrid};
 use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
 use crate::splat::{SampleSplat, SplatSink, Stats};
+
+/// What a shadow algorithm adds to the walk. Implemented by [`NoShadows`] and, with the `shadows`
+/// feature, by the shadow-map passes in [`crate::shadow`].
+pub trait ShadowHooks {
+    /// A node's light-space position (`()` without shadows).
+    type Pos: Copy;
+    /// Visit children in [`ShadowHooks::order`] instead of slot order.
+    const ORDERED: bool;
+    /// Keep walking subtrees the view culls, to fill the shadow map with what they cast.
+    const FILL_CULLED: bool;
+    /// Light-space position of the root cell.
+    fn root(&self) -> Self::Pos;
+    /// Light-space position of child `slot` of a cell at `level - 1` at `parent`.
+    fn child(&self, parent: Self::Pos, level: usize, slot: usize) -> Self::Pos;
+    /// The child slots, nearest to the light first.
+    fn order(&self) -> &[u8; MAX_SLOTS];
+    /// A sample drawn in the view, with attribute `attr`: returns whether it is in shadow (and may
+    /// fill the map).
+    fn drawn(&mut self, level: usize, p: Self::Pos, attr: u16) -> bool;
+    /// A sample that casts but is not drawn (backfacing, or in a culled subtree): fill only.
+    fn casts(&mut self, level: usize, p: Self::Pos);
+    /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
+    fn light_stop(&self, level: usize) -> bool;
+}
+
+/// No shadows: every hook is a no-op and the light-space position is `()`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoShadows;
+
+impl ShadowHooks for NoShadows {
+    type Pos = ();
+    const ORDERED: bool = false;
+    const FILL_CULLED: bool = false;
+    #[inline(always)]
+    fn root(&self) {}
+    #[inline(always)]
+    fn child(&self, _: (), _: usize, _: usize) {}
+    #[inline(always)]
+    fn order(&self) -> &[u8; MAX_SLOTS] {
+        &IDENTITY_ORDER
+    }
+    #[inline(always)]
+    fn drawn(&mut self, _: usize, _: (), _: u16) -> bool {
+        false
+    }
+    #[inline(always)]
+    fn casts(&mut self, _: usize, _: ()) {}
+    #[inline(always)]
+    fn light_stop(&self, _: usize) -> bool {
+        true
+    }
+}
+
+const IDENTITY_ORDER: [u8; MAX_SLOTS] = {
+    let mut o = [0u8; MAX_SLOTS];
+    let mut i = 0;
+    while i < MAX_SLOTS {
+        o[i] = i as u8;
+        i += 1;
+    }
+    o
+};
 
 /// Draws one frame of `grid` set up by `frame` into `sink`, and returns what it did.
 ///
@@ -15,38 +82,88 @@ use crate::splat::{SampleSplat, SplatSink, Stats};
 /// near plane, stops testing below a cell that is entirely inside, and skips backfacing samples.
 /// The work is bounded by the file: each node is visited at most once.
 pub fn render_tg<S: SplatSink>(grid: &TriGrid<'_>, frame: &TgFrame, sink: &mut S) -> Stats {
-    let mut arrays = [LevelArrays::default(); MAX_LEVELS];
-    for (l, a) in arrays
-        .iter_mut()
-        .enumerate()
-        .take(usize::from(frame.depth) + 1)
-    {
-        *a = grid.arrays(l as u8);
-    }
-    let octree = grid.header().rho == 2;
-    let mut w = Walker {
-        arrays,
-        octree,
-        frame,
-        sink,
-        stats: Stats::default(),
-    };
-    if grid.header().rho == frame.rho && grid.header().depth == frame.depth {
-        let mask = w.mask(0, 0);
-        w.node(0, 0, mask, 0, frame.root, false);
-    }
-    w.stats
+    render_tg_with(grid, frame, &mut NoShadows, sink)
 }
 
-struct Walker<'g, 'f, 's, S> {
+/// [`render_tg`] with shadow hooks.
+pub fn render_tg_with<S: SplatSink, H: ShadowHooks>(
+    grid: &TriGrid<'_>,
+    frame: &TgFrame,
+    hooks: &mut H,
+    sink: &mut S,
+) -> Stats {
+    match Walker::new(grid, frame, hooks, sink) {
+        Some(mut w) => {
+            let mask = w.mask(0, 0);
+            let root = w.hooks.root();
+            w.node(0, 0, mask, 0, frame.root, root, false);
+            w.stats
+        }
+        None => Stats::default(),
+    }
+}
+
+/// Walks the whole grid for the shadow map only (a two-pass renderer's first pass), stopping where
+/// [`ShadowHooks::light_stop`] says; returns the nodes visited.
+pub fn fill_tg<H: ShadowHooks>(grid: &TriGrid<'_>, frame: &TgFrame, hooks: &mut H) -> u32 {
+    let mut sink = crate::splat::NullSink::default();
+    match Walker::new(grid, frame, hooks, &mut sink) {
+        Some(mut w) => {
+            let mask = w.mask(0, 0);
+            let root = w.hooks.root();
+            w.cast_only(0, 0, mask, 0, root);
+            w.stats.nodes_visited
+        }
+        None => 0,
+    }
+}
+
+struct Walker<'g, 'f, 'h, 's, S, H> {
     arrays: [LevelArrays<'g>; MAX_LEVELS],
     octree: bool,
     frame: &'f TgFrame,
+    hooks: &'h mut H,
     sink: &'s mut S,
     stats: Stats,
 }
 
-impl<S: SplatSink> Walker<'_, '_, '_, S> {
+/// A child about to be visited: its slot, index, first child, mask.
+#[derive(Clone, Copy, Default)]
+struct Child {
+    index: u32,
+    grand: u32,
+    mask: u32,
+}
+
+impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> {
+    fn new(
+        grid: &TriGrid<'g>,
+        frame: &'f TgFrame,
+        hooks: &'h mut H,
+        sink: &'s mut S,
+    ) -> Option<Self> {
+        if grid.header().rho != frame.rho || grid.header().depth != frame.depth {
+            return None;
+        }
+        let mut arrays = [LevelArrays::default(); MAX_LEVELS];
+        for (l, a) in arrays
+            .iter_mut()
+            .enumerate()
+            .take(usize::from(frame.depth) + 1)
+        {
+            *a = grid.arrays(l as u8);
+        }
+        let octree = grid.header().rho == 2;
+        Some(Walker {
+            arrays,
+            octree,
+            frame,
+            hooks,
+            sink,
+            stats: Stats::default(),
+        })
+    }
+
     #[inline(always)]
     fn mask(&self, level: u8, i: u32) -> u32 {
         let a = &self.arrays[usize::from(level)];
@@ -57,9 +174,48 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
         }
     }
 
+    /// The children of a cell in slot order, with their indices and the first index of their own
+    /// children (the group pointer plus a running popcount).
+    #[inline(always)]
+    fn children(
+        &self,
+        level: u8,
+        index: u32,
+        mask: u32,
+        first_child: u32,
+        out: &mut [Child; MAX_SLOTS],
+    ) {
+        let next = level + 1;
+        let has_grandchildren = next < self.frame.depth;
+        let mut grand = if has_grandchildren {
+            self.arrays[usize::from(level)].group(index)
+        } else {
+            0
+        };
+        let mut child = first_child;
+        let mut m = mask;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let cm = if has_grandchildren {
+                self.mask(next, child)
+            } else {
+                0
+            };
+            out[s] = Child {
+                index: child,
+                grand,
+                mask: cm,
+            };
+            grand += cm.count_ones();
+            child += 1;
+        }
+    }
+
     /// Visits cell `index` at `level` with child mask `mask`, whose children start at `first_child`
-    /// on the next level, with projected centre `c`; `inside` when an ancestor was entirely inside the
-    /// frustum (QSplat's flag: no more tests below it).
+    /// on the next level, with projected centre `c` and light-space position `p`; `inside` when an
+    /// ancestor was entirely inside the frustum (QSplat's flag: no more tests below it).
+    #[allow(clippy::too_many_arguments)]
     fn node(
         &mut self,
         level: u8,
@@ -67,6 +223,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
         mask: u32,
         first_child: u32,
         c: [i32; 3],
+        p: H::Pos,
         inside: bool,
     ) {
         self.stats.nodes_visited += 1;
@@ -80,68 +237,125 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
             let b = 320 * w - y;
             if w + e.w < f.near_w || x + e.x < 0 || r + e.r < 0 || y + e.y < 0 || b + e.b < 0 {
                 self.stats.culled += 1;
+                if H::FILL_CULLED {
+                    // Outside the view, but it may cast shadows into it.
+                    self.stats.nodes_visited -= 1;
+                    self.cast_only(level, index, mask, first_child, p);
+                }
                 return;
             }
             inside =
                 x - e.x >= 0 && r - e.r >= 0 && y - e.y >= 0 && b - e.b >= 0 && w - e.w >= f.near_w;
         }
         if level == f.depth || w - e.w >= f.lod_w[l] {
-            self.draw(level, index, c);
+            self.draw(level, index, c, p);
             return;
         }
-        // Descend: children in slot order; the group pointer finds the grandchildren.
         let next = level + 1;
-        let has_grandchildren = next < f.depth;
-        let mut grand = if has_grandchildren {
-            self.arrays[l].group(index)
-        } else {
-            0
-        };
         let disp = &f.disp[usize::from(next)];
-        let mut child = first_child;
-        let mut m = mask;
-        while m != 0 {
-            let s = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let d = disp[s];
-            let cm = if has_grandchildren {
-                self.mask(next, child)
+        if H::ORDERED {
+            let mut kids = [Child::default(); MAX_SLOTS];
+            self.children(level, index, mask, first_child, &mut kids);
+            let order = *self.hooks.order();
+            for s in order {
+                let s = usize::from(s);
+                if mask >> s & 1 == 0 {
+                    continue;
+                }
+                let (k, d) = (kids[s], disp[s]);
+                let cp = self.hooks.child(p, usize::from(next), s);
+                self.node(
+                    next,
+                    k.index,
+                    k.mask,
+                    k.grand,
+                    [x + d[0], y + d[1], w + d[2]],
+                    cp,
+                    inside,
+                );
+            }
+        } else {
+            // Children in slot order; the group pointer finds the grandchildren.
+            let has_grandchildren = next < f.depth;
+            let mut grand = if has_grandchildren {
+                self.arrays[l].group(index)
             } else {
                 0
             };
-            self.node(
-                next,
-                child,
-                cm,
-                grand,
-                [x + d[0], y + d[1], w + d[2]],
-                inside,
-            );
-            grand += cm.count_ones();
-            child += 1;
+            let mut child = first_child;
+            let mut m = mask;
+            while m != 0 {
+                let s = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let d = disp[s];
+                let cm = if has_grandchildren {
+                    self.mask(next, child)
+                } else {
+                    0
+                };
+                let cp = self.hooks.child(p, usize::from(next), s);
+                self.node(
+                    next,
+                    child,
+                    cm,
+                    grand,
+                    [x + d[0], y + d[1], w + d[2]],
+                    cp,
+                    inside,
+                );
+                grand += cm.count_ones();
+                child += 1;
+            }
+        }
+    }
+
+    /// A subtree seen only by the light: descend in light order to the light's level of detail and
+    /// let every sample there cast into the shadow map.
+    fn cast_only(&mut self, level: u8, index: u32, mask: u32, first_child: u32, p: H::Pos) {
+        self.stats.nodes_visited += 1;
+        let l = usize::from(level);
+        if level == self.frame.depth || self.hooks.light_stop(l) {
+            self.hooks.casts(l, p);
+            return;
+        }
+        let next = level + 1;
+        let mut kids = [Child::default(); MAX_SLOTS];
+        self.children(level, index, mask, first_child, &mut kids);
+        let order = *self.hooks.order();
+        for s in order {
+            let s = usize::from(s);
+            if mask >> s & 1 == 1 {
+                let k = kids[s];
+                let cp = self.hooks.child(p, usize::from(next), s);
+                self.cast_only(next, k.index, k.mask, k.grand, cp);
+            }
         }
     }
 
     #[inline]
-    fn draw(&mut self, level: u8, index: u32, c: [i32; 3]) {
+    fn draw(&mut self, level: u8, index: u32, c: [i32; 3], p: H::Pos) {
         let f = self.frame;
         let [x, y, w] = c;
+        let l = usize::from(level);
         if w < f.near_w {
+            self.hooks.casts(l, p);
             return;
         }
-        let attr = self.arrays[usize::from(level)].attr(index);
+        let attr = self.arrays[l].attr(index);
         let code = usize::from(attr & 0x1FFF);
         if f.backface[code / 32] >> (code % 32) & 1 != 0 {
             self.stats.backfacing += 1;
+            self.hooks.casts(l, p);
             return;
         }
+        let shadowed = self.hooks.drawn(l, p, attr);
         let (r, shift) = recip(w as u32);
         let r = i64::from(r);
         let sh = shift - SUBPIXEL_BITS;
         let half = 1i64 << (sh - 1);
         let x_q4 = ((i64::from(x) * r + half) >> sh) as i32;
         let y_q4 = ((i64::from(y) * r + half) >> sh) as i32;
-        let (k, kshift) = f.size_k[usize::from(level)];
+        let (k, kshift) = f.size_k[l];
         let size_q4 = if shift > kshift {
             ((u64::from(k) * r as u64) >> (shift - kshift)).min(i32::MAX as u64) as i32
         } else {
@@ -150,6 +364,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
         let dz = (w - f.depth_w0).max(0) as u64;
         let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
         self.stats.splats += 1;
+        self.stats.shadowed += u32::from(shadowed);
         self.stats.max_level = self.stats.max_level.max(level);
         self.sink.splat(&SampleSplat {
             x_q4,
@@ -159,6 +374,7 @@ impl<S: SplatSink> Walker<'_, '_, '_, S> {
             attr,
             level,
             index,
+            shadowed,
         });
     }
 }
