@@ -1,5 +1,5 @@
 //! Golden images: the four standard views of the bunny at paper level 5 (depth 6), cutoff 1 px,
-//! compared whole-frame with the checked-in PNGs in `tests/golden/`. A mismatch names the first
+//! without shadows and with one-pass and two-pass shadows, compared whole-frame with the checked-in PNGs in `tests/golden/`. A mismatch names the first
 //! differing pixel and the count.
 //!
 //! Re-recording is a deliberate, separate command:
@@ -12,11 +12,34 @@ use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::image::{read_rgb8_frame, write_rgb8_png};
 use pocketsplat_sim::metrics::{compare_frames, psnr_rgb8};
 use pocketsplat_sim::reference::render_reference;
-use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
+use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 use pocketsplat_tests::{model, workspace_root};
 
 fn recording() -> bool {
     std::env::var("POCKETSPLAT_RECORD").is_ok_and(|v| v == "1")
+}
+
+/// Compares a frame with its golden image (or records it), adding any difference to `failures`.
+fn check(file: &str, rgb: &[[u8; 3]], failures: &mut Vec<String>) {
+    let golden = workspace_root().join("tests/golden").join(file);
+    if recording() {
+        write_rgb8_png(&golden, rgb).unwrap();
+        eprintln!("recorded {}", golden.display());
+        return;
+    }
+    let expected = read_rgb8_frame(&golden).unwrap_or_else(|e| {
+        panic!(
+            "{e:#}; record with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test golden"
+        )
+    });
+    if let Some(diff) = compare_frames(&expected, rgb) {
+        let actual = std::env::temp_dir().join(format!("pocketsplat-actual-{file}"));
+        write_rgb8_png(&actual, rgb).unwrap();
+        failures.push(format!(
+            "{file}: {diff} (actual frame written to {})",
+            actual.display()
+        ));
+    }
 }
 
 #[test]
@@ -31,43 +54,31 @@ fn bunny_standard_views_match_golden_images_and_the_reference() {
     let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
     let mut failures = Vec::new();
     for (name, view) in STANDARD_VIEWS {
-        let settings = Settings {
-            view,
-            ..Settings::default()
-        };
-        let mut fb = FrameBuffers::new();
-        render_tg_frame(&grid, &settings, &mut fb).unwrap();
-        let rgb: Vec<[u8; 3]> = fb.pixels().iter().map(|&p| rgb565_to_rgb888(p)).collect();
-
-        // Quality floor against the f64 reference (measured 27-35 dB; see README).
-        let reference = render_reference(
-            &mesh,
-            &settings.camera(mesh.bounds_f32()),
-            &[settings.material],
-            settings.light_dir(),
-        );
-        let psnr = psnr_rgb8(&reference.to_rgb8(), &rgb);
-        assert!(
-            psnr > 25.0,
-            "{name}: PSNR {psnr:.2} dB against the reference"
-        );
-
-        let golden = workspace_root().join(format!("tests/golden/bunny-d6-{name}.png"));
-        if recording() {
-            write_rgb8_png(&golden, &rgb).unwrap();
-            eprintln!("recorded {}", golden.display());
-            continue;
-        }
-        let expected = read_rgb8_frame(&golden)
-            .unwrap_or_else(|e| panic!("{e:#}; record with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test golden"));
-        if let Some(diff) = compare_frames(&expected, &rgb) {
-            let actual =
-                std::env::temp_dir().join(format!("pocketsplat-actual-bunny-d6-{name}.png"));
-            write_rgb8_png(&actual, &rgb).unwrap();
-            failures.push(format!(
-                "{name}: {diff} (actual frame written to {})",
-                actual.display()
-            ));
+        for (mode, suffix) in [
+            (ShadowMode::Off, ""),
+            (ShadowMode::OnePass, "-onepass"),
+            (ShadowMode::TwoPass, "-twopass"),
+        ] {
+            let settings = Settings {
+                view,
+                shadows: mode,
+                ..Settings::default()
+            };
+            let mut fb = FrameBuffers::new();
+            render_tg_frame(&grid, &settings, &mut fb).unwrap();
+            let rgb: Vec<[u8; 3]> = fb.pixels().iter().map(|&p| rgb565_to_rgb888(p)).collect();
+            if mode == ShadowMode::Off {
+                // Quality floor against the f64 reference (measured 27-35 dB; see README).
+                let camera = settings.camera(mesh.bounds_f32());
+                let reference =
+                    render_reference(&mesh, &camera, &[settings.material], settings.light_dir());
+                let psnr = psnr_rgb8(&reference.to_rgb8(), &rgb);
+                assert!(
+                    psnr > 25.0,
+                    "{name}: PSNR {psnr:.2} dB against the reference"
+                );
+            }
+            check(&format!("bunny-d6-{name}{suffix}.png"), &rgb, &mut failures);
         }
     }
     assert!(

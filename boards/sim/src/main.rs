@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use pocketsplat_core::raster::Kernel;
+use pocketsplat_sim::render::ShadowMode;
 use pocketsplat_sim::{cmd, report};
 
 #[derive(Parser)]
@@ -70,6 +71,10 @@ enum Command {
         /// Light direction AZ,EL in degrees (world, same convention as views).
         #[arg(long, default_value = "-40,60", allow_hyphen_values = true)]
         light: String,
+        /// Shadows from the light: none, one-pass (light-ordered traversal) or two-pass (shadow
+        /// map first). For a mesh, the reference renderer casts exact shadow rays instead.
+        #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
+        shadows: ShadowArg,
         /// Print one JSON object with the frame's statistics on stdout.
         #[arg(long)]
         stats_json: bool,
@@ -79,6 +84,13 @@ enum Command {
         #[command(subcommand)]
         which: ReportKind,
     },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ShadowArg {
+    Off,
+    OnePass,
+    TwoPass,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -137,6 +149,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cutoff,
             kernel,
             light,
+            shadows,
             stats_json,
         }) => {
             if !(fov > 0.0 && fov < 180.0) {
@@ -155,6 +168,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     KernelArg::Round => Kernel::Round,
                 },
                 light_az_el: (az, el),
+                shadows: match shadows {
+                    ShadowArg::Off => ShadowMode::Off,
+                    ShadowArg::OnePass => ShadowMode::OnePass,
+                    ShadowArg::TwoPass => ShadowMode::TwoPass,
+                },
                 ..Default::default()
             };
             cmd::render::run(&input, &out, &settings, stats_json)

@@ -5,6 +5,8 @@ use std::time::{Duration, Instant};
 use pocketsplat_core::camera::{self, Camera, Placement, Sphere, View, DEFAULT_FOV_DEG};
 use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+pub use pocketsplat_core::shadow::ShadowMode;
+use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid};
 
@@ -14,12 +16,14 @@ pub use pocketsplat_core::camera::{HEIGHT, WIDTH};
 /// Colour rows of a frame.
 pub type Rows = Box<[[u16; WIDTH]; HEIGHT]>;
 
-/// An owned frame: colour and depth on the heap.
+/// An owned frame: colour and depth on the heap, and a shadow map once shadows are used.
 pub struct FrameBuffers {
     /// RGB565 rows.
     pub color: Rows,
     /// Depth rows.
     pub depth: Rows,
+    /// Shadow-map depths, allocated on first use.
+    pub shadow: Vec<u16>,
 }
 
 impl Default for FrameBuffers {
@@ -40,6 +44,7 @@ impl FrameBuffers {
         let mut f = Self {
             color: rows(),
             depth: rows(),
+            shadow: Vec::new(),
         };
         f.framebuffer().clear(0);
         f
@@ -66,6 +71,10 @@ impl FrameBuffers {
     }
 }
 
+/// Default shadow-map side: 256² texels (128 KB), about one texel per 3 leaf cells of a depth-6
+/// tri-grid.
+pub const DEFAULT_SHADOW_MAP_SIZE: usize = 256;
+
 /// Everything that decides a frame, with the defaults of the `render` command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -81,6 +90,10 @@ pub struct Settings {
     pub light_az_el: (f64, f64),
     /// Material of every sample.
     pub material: Material,
+    /// Shadow algorithm.
+    pub shadows: ShadowMode,
+    /// Side of the shadow map, texels.
+    pub shadow_map_size: usize,
 }
 
 impl Default for Settings {
@@ -92,6 +105,8 @@ impl Default for Settings {
             kernel: Kernel::Square,
             light_az_el: DEFAULT_LIGHT_AZ_EL,
             material: DEFAULT_MATERIAL,
+            shadows: ShadowMode::Off,
+            shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
         }
     }
 }
@@ -154,14 +169,23 @@ pub fn render_tg_with(
         settings.light_dir(),
         camera::scale(cam.forward, -1.0),
     );
-    let mut fb = out.framebuffer();
+    // Borrow the fields apart: the shadow map is used while the framebuffer is.
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
     fb.clear(0);
     let mut sink = ShadedRaster {
         fb: &mut fb,
         table,
         kernel: settings.kernel,
     };
-    let stats = render_tg(grid, &frame, &mut sink);
+    let stats = if settings.shadows == ShadowMode::Off {
+        render_tg(grid, &frame, &mut sink)
+    } else {
+        let n = settings.shadow_map_size;
+        out.shadow.resize(n * n, u16::MAX);
+        let light = LightFrame::new(grid.header(), &Placement::IDENTITY, settings.light_dir(), n);
+        let mut map = ShadowMap::new(&mut out.shadow, n);
+        render_tg_shadowed(grid, &frame, &light, &mut map, settings.shadows, &mut sink)
+    };
     let time = t.elapsed();
     overlay(&mut fb, &stats);
     Ok(FrameReport { stats, time })

@@ -80,7 +80,8 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
                 json!({
                     "input": input.display().to_string(), "renderer": "tg",
                     "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
-                    "culled": s.culled, "backfacing": s.backfacing,
+                    "culled": s.culled, "backfacing": s.backfacing, "shadowed": s.shadowed,
+                    "shadows": format!("{:?}", settings.shadows),
                     "ms": r.time.as_secs_f64() * 1e3, "cutoff_px": settings.cutoff_px,
                     "kernel": match settings.kernel { Kernel::Square => "square", Kernel::Round => "round" },
                 })
