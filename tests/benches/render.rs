@@ -1,5 +1,6 @@
 //! Frame time of the integer renderer on the bunny (paper level 5 = depth 6), the standard views,
-//! cutoffs 1–8 px, tri-grid against octree; and the traversal alone, for nodes visited per second.
+//! cutoffs 1–8 px, tri-grid against octree; shadows off, one-pass and two-pass; and the traversal
+//! alone, for nodes visited per second.
 //!
 //! `cargo bench -p pocketsplat-tests --bench render` (models from ../shared/models).
 
@@ -8,7 +9,7 @@ use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::{Placement, STANDARD_VIEWS};
 use pocketsplat_core::splat::NullSink;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
-use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
+use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 
 fn bake(rho: u8, depth: u8) -> Vec<u8> {
     let path = pocketsplat_tests::model("bun_zipper.ply.gz")
@@ -39,6 +40,26 @@ fn frames(c: &mut Criterion) {
                 });
             }
         }
+    }
+    group.finish();
+
+    // Shadows (Duguet Table 5): the std view of the tri-grid at 1 px, off / one-pass / two-pass.
+    let mut group = c.benchmark_group("shadows");
+    group.sample_size(20);
+    let tg = TriGrid::open(&models[0].1, Verify::Structure).unwrap();
+    for (name, mode) in [
+        ("off", ShadowMode::Off),
+        ("one-pass", ShadowMode::OnePass),
+        ("two-pass", ShadowMode::TwoPass),
+    ] {
+        let settings = Settings {
+            shadows: mode,
+            ..Settings::default()
+        };
+        let mut fb = FrameBuffers::new();
+        group.bench_function(format!("trigrid/std/1px/{name}"), |b| {
+            b.iter(|| render_tg_frame(&tg, &settings, &mut fb).unwrap().stats)
+        });
     }
     group.finish();
 
