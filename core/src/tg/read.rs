@@ -29,8 +29,17 @@ pub enum TgError {
     UnsupportedMaterialBits(u8),
     /// `block_log2` outside 9..=16.
     UnsupportedBlockSize(u8),
-    /// The root cube or bounding box is not finite, or the side is not positive.
-    BadRootCube,
+    /// A root cube or bounding box number is not finite, the side is not positive, or a bounding box
+    /// minimum exceeds its maximum.
+    BadRootCube {
+        /// Byte offset of the offending `f32` in the header (16..=28 root cube, 48..=68 bounds).
+        offset: u8,
+    },
+    /// A reserved header byte is not 0.
+    ReservedNotZero {
+        /// Its byte offset in the header.
+        offset: u16,
+    },
     /// The file length is not the header's block count times the block size.
     LengthMismatch {
         /// Bytes the header announces.
@@ -42,10 +51,13 @@ pub enum TgError {
     BadCrcTable(u32),
     /// A block's CRC-32 does not match (block 0: the header).
     BlockCrc(u32),
-    /// A level's array offset is misaligned, overlaps the header or runs past the end.
+    /// A level's array offset is misaligned, overlaps the header or runs past the end, or is set for
+    /// an array the level must not have.
     BadArray {
         /// The level.
         level: u8,
+        /// The offending byte offset from the directory.
+        offset: u32,
     },
     /// A count does not match what the level above announces (level 0 must hold 1 sample).
     CountMismatch {
@@ -96,7 +108,19 @@ impl core::fmt::Display for TgError {
             TgError::UnsupportedBlockSize(b) => {
                 write!(f, "unsupported block size 2^{b} (2^9..=2^16)")
             }
-            TgError::BadRootCube => write!(f, "root cube is not finite or has no size"),
+            TgError::BadRootCube { offset } => write!(
+                f,
+                "header field at byte {offset} ({}): the root cube or bounding box is not finite, \
+                 has no size or is inverted",
+                match offset {
+                    16..=27 => "root cube corner",
+                    28..=31 => "root cube side",
+                    _ => "bounding box",
+                }
+            ),
+            TgError::ReservedNotZero { offset } => {
+                write!(f, "reserved header byte {offset} is not 0")
+            }
             TgError::LengthMismatch { expected, found } => {
                 write!(
                     f,
@@ -106,9 +130,11 @@ impl core::fmt::Display for TgError {
             TgError::BadCrcTable(t) => write!(f, "CRC table of {t} blocks does not fit"),
             TgError::BlockCrc(0) => write!(f, "header block fails its CRC check"),
             TgError::BlockCrc(b) => write!(f, "block {b} fails its CRC check"),
-            TgError::BadArray { level } => {
-                write!(f, "level {level}: an array lies outside the data blocks")
-            }
+            TgError::BadArray { level, offset } => write!(
+                f,
+                "level {level}: the array at byte {offset} is misaligned, lies outside the data \
+                 blocks or should be absent"
+            ),
             TgError::CountMismatch {
                 level,
                 expected,
@@ -323,23 +349,40 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     if material_bits > 3 {
         return Err(TgError::UnsupportedMaterialBits(material_bits));
     }
-    let origin = [
-        f32_at(block, 16).ok_or(short)?,
-        f32_at(block, 20).ok_or(short)?,
-        f32_at(block, 24).ok_or(short)?,
-    ];
+    // Reserved bytes must be 0, so that a later version can give them a meaning.
+    for offset in (13..16).chain(40..48) {
+        if u8_at(block, offset).ok_or(short)? != 0 {
+            return Err(TgError::ReservedNotZero {
+                offset: offset as u16,
+            });
+        }
+    }
+    let mut origin = [0.0f32; 3];
+    for (k, v) in origin.iter_mut().enumerate() {
+        *v = f32_at(block, 16 + 4 * k).ok_or(short)?;
+        if !v.is_finite() {
+            return Err(TgError::BadRootCube {
+                offset: (16 + 4 * k) as u8,
+            });
+        }
+    }
     let side = f32_at(block, 28).ok_or(short)?;
-    if !(origin.iter().all(|c| c.is_finite()) && side.is_finite() && side > 0.0) {
-        return Err(TgError::BadRootCube);
+    if !(side.is_finite() && side > 0.0) {
+        return Err(TgError::BadRootCube { offset: 28 });
     }
     let mut bounds = [[0.0f32; 3]; 2];
     for (k, v) in bounds.iter_mut().flatten().enumerate() {
         *v = f32_at(block, BOUNDS_OFFSET + 4 * k).ok_or(short)?;
+        if !v.is_finite() {
+            return Err(TgError::BadRootCube {
+                offset: (BOUNDS_OFFSET + 4 * k) as u8,
+            });
+        }
     }
-    if !(bounds.iter().flatten().all(|c| c.is_finite())
-        && (0..3).all(|a| bounds[0][a] <= bounds[1][a]))
-    {
-        return Err(TgError::BadRootCube);
+    if let Some(a) = (0..3).find(|&a| bounds[0][a] > bounds[1][a]) {
+        return Err(TgError::BadRootCube {
+            offset: (BOUNDS_OFFSET + 4 * a) as u8,
+        });
     }
     let blocks = u32_at(block, 32).ok_or(short)?;
     let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
@@ -379,6 +422,14 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
             mask_off: u32_at(block, at + 12).ok_or(short)?,
             group_off: u32_at(block, at + 16).ok_or(short)?,
         };
+        if u32_at(block, at + 20).ok_or(short)? != 0 {
+            let first = (at + 20..at + 24)
+                .find(|&o| u8_at(block, o) != Some(0))
+                .unwrap_or(at + 20);
+            return Err(TgError::ReservedNotZero {
+                offset: first as u16,
+            });
+        }
     }
     check_directory(&header, &levels)?;
     Ok((header, levels))
@@ -391,22 +442,22 @@ fn check_directory(h: &Header, levels: &[LevelDir; MAX_LEVELS]) -> Result<(), Tg
     let file_end = u64::from(h.blocks) << h.block_log2;
     for (l, dir) in levels.iter().enumerate().take(h.levels()) {
         let level = l as u8;
-        let bad = TgError::BadArray { level };
         let arrays = [
             (dir.attr_off, 2, true),
             (dir.color_off, 2, h.has_color()),
             (dir.mask_off, h.mask_bytes(), level < h.depth),
             (dir.group_off, 4, level + 1 < h.depth),
         ];
-        for (off, size, present) in arrays {
+        for (offset, size, present) in arrays {
+            let bad = TgError::BadArray { level, offset };
             if !present {
-                if off != 0 {
+                if offset != 0 {
                     return Err(bad);
                 }
                 continue;
             }
-            let end = u64::from(off) + u64::from(dir.count) * u64::from(size);
-            if off % ARRAY_ALIGN != 0 || u64::from(off) < data_start || end > file_end {
+            let end = u64::from(offset) + u64::from(dir.count) * u64::from(size);
+            if offset % ARRAY_ALIGN != 0 || u64::from(offset) < data_start || end > file_end {
                 return Err(bad);
             }
         }

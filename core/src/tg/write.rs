@@ -171,19 +171,51 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
         }
     }
 
-    // CRC table over the data blocks, then the table blocks' CRCs in the header, then the header's.
-    for b in 1 + t..blocks {
-        let c = crc32(&file[b * bs..(b + 1) * bs]);
-        file[bs + 4 * b..bs + 4 * b + 4].copy_from_slice(&c.to_le_bytes());
+    seal(&mut file);
+    Ok(file)
+}
+
+/// Recomputes every CRC of a `.tg` file from the layout its header announces: the CRC table over the
+/// data blocks, the table blocks' CRCs in the header, then the header's own CRC. Whatever does not fit
+/// (a block size out of range, a table that runs past the file) is skipped, never indexed blindly, so
+/// this takes any bytes.
+///
+/// The writer uses it last; tests and fuzzers use it to craft files whose checksums are right but
+/// whose structure is not, so that the structure checks of [`super::TriGrid::open`] are what fires.
+pub fn seal(file: &mut [u8]) {
+    let Some(&block_log2) = file.get(12) else {
+        return;
+    };
+    if !BLOCK_LOG2_RANGE.contains(&block_log2) {
+        return;
     }
-    for k in 1..=t {
-        let c = crc32(&file[k * bs..(k + 1) * bs]);
+    let bs = 1usize << block_log2;
+    if file.len() < bs {
+        return;
+    }
+    let blocks = file.len() / bs;
+    let levels = usize::from(file[9]) + 1;
+    let t = u32::from_le_bytes([file[36], file[37], file[38], file[39]]) as usize;
+    let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * levels;
+    let table_end = t.saturating_add(1).saturating_mul(bs).min(file.len());
+    for b in t.saturating_add(1)..blocks {
+        let at = bs + 4 * b;
+        if at + 4 > table_end {
+            break;
+        }
+        let c = crc32(&file[b * bs..(b + 1) * bs]);
+        file[at..at + 4].copy_from_slice(&c.to_le_bytes());
+    }
+    for k in 1..=t.min(blocks.saturating_sub(1)) {
         let e = list_at + 4 * (k - 1);
+        if e + 4 > bs - 4 {
+            break;
+        }
+        let c = crc32(&file[k * bs..(k + 1) * bs]);
         file[e..e + 4].copy_from_slice(&c.to_le_bytes());
     }
     let c = crc32(&file[..bs - 4]);
     file[bs - 4..bs].copy_from_slice(&c.to_le_bytes());
-    Ok(file)
 }
 
 fn put_u16s(dst: &mut [u8], src: &[u16]) {
