@@ -157,13 +157,31 @@ pub fn render_tg_with(
     overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
 ) -> anyhow::Result<FrameReport> {
     let cam = settings.camera(grid.header().bounds);
+    render_tg_from(grid, settings, &cam, table, out, |fb, report| {
+        overlay(fb, &report.stats)
+    })
+}
+
+/// As [`render_tg_with`], from `cam` instead of the orbit camera of `settings.view` (the viewer
+/// pans the orbit centre); the hook also sees the frame's time.
+///
+/// # Errors
+/// When the frame cannot be set up.
+pub fn render_tg_from(
+    grid: &TriGrid<'_>,
+    settings: &Settings,
+    cam: &Camera,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    overlay: impl FnOnce(&mut Framebuffer<'_>, &FrameReport),
+) -> anyhow::Result<FrameReport> {
     let opts = RenderOptions {
         cutoff_px: settings.cutoff_px,
         kernel: settings.kernel,
         ..RenderOptions::default()
     };
     let t = Instant::now();
-    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, &cam, &opts)?;
+    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, cam, &opts)?;
     table.update(
         &[settings.material],
         settings.light_dir(),
@@ -186,7 +204,10 @@ pub fn render_tg_with(
         let mut map = ShadowMap::new(&mut out.shadow, n);
         render_tg_shadowed(grid, &frame, &light, &mut map, settings.shadows, &mut sink)
     };
-    let time = t.elapsed();
-    overlay(&mut fb, &stats);
-    Ok(FrameReport { stats, time })
+    let report = FrameReport {
+        stats,
+        time: t.elapsed(),
+    };
+    overlay(&mut fb, &report);
+    Ok(report)
 }
