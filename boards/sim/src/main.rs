@@ -79,6 +79,46 @@ enum Command {
         #[arg(long)]
         stats_json: bool,
     },
+    /// Show a point file in a window: orbit, pan and zoom with the mouse and keys, refined to
+    /// 1 px whenever nothing moves. Needs a display; without one, use `render`.
+    #[command(after_help = cmd::view::KEYS_HELP)]
+    View {
+        /// A `.tg` file.
+        input: PathBuf,
+        /// Starting view: a standard view (std, front, close, far) or AZ,EL,DIST.
+        #[arg(long, default_value = "std", allow_hyphen_values = true)]
+        view: String,
+        /// Vertical field of view, degrees.
+        #[arg(long, default_value_t = 45.0)]
+        fov: f64,
+        /// LOD cutoff while moving, pixels (1..=64); idle frames refine it down to 1 px.
+        #[arg(long, default_value_t = 2.0)]
+        cutoff: f32,
+        /// Splat kernel.
+        #[arg(long, value_enum, default_value_t = KernelArg::Square)]
+        kernel: KernelArg,
+        /// Light direction AZ,EL in degrees.
+        #[arg(long, default_value = "-40,60", allow_hyphen_values = true)]
+        light: String,
+        /// Shadows from the light.
+        #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
+        shadows: ShadowArg,
+        /// Window pixels per framebuffer pixel: 1, 2 or 4.
+        #[arg(long, default_value_t = 2)]
+        scale: usize,
+        /// Keep the moving cutoff when idle (no progressive refinement).
+        #[arg(long)]
+        no_refine: bool,
+        /// Adapt the moving cutoff to hold this frame rate (QSplat's frame-rate control).
+        #[arg(long)]
+        target_fps: Option<f32>,
+        /// Quit after N window updates (60 per second at most); for scripts and tests.
+        #[arg(long, value_name = "N")]
+        frames: Option<u64>,
+        /// Write the frame on screen (HUD included) as a PNG when fully refined, and at exit.
+        #[arg(long, value_name = "PNG")]
+        screenshot: Option<PathBuf>,
+    },
     /// Reports measured live.
     Report {
         #[command(subcommand)]
@@ -176,6 +216,53 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ..Default::default()
             };
             cmd::render::run(&input, &out, &settings, stats_json)
+        }
+        Some(Command::View {
+            input,
+            view,
+            fov,
+            cutoff,
+            kernel,
+            light,
+            shadows,
+            scale,
+            no_refine,
+            target_fps,
+            frames,
+            screenshot,
+        }) => {
+            if !(fov > 0.0 && fov < 180.0) {
+                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
+            }
+            if !(cutoff > 0.0 && cutoff.is_finite()) {
+                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
+            }
+            let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
+            let settings = pocketsplat_sim::render::Settings {
+                view: cmd::render::parse_view(&view)?,
+                fov_deg: fov,
+                cutoff_px: cutoff,
+                kernel: match kernel {
+                    KernelArg::Square => Kernel::Square,
+                    KernelArg::Round => Kernel::Round,
+                },
+                light_az_el: (az, el),
+                shadows: match shadows {
+                    ShadowArg::Off => ShadowMode::Off,
+                    ShadowArg::OnePass => ShadowMode::OnePass,
+                    ShadowArg::TwoPass => ShadowMode::TwoPass,
+                },
+                ..Default::default()
+            };
+            let opts = cmd::view::ViewOptions {
+                settings,
+                scale,
+                refine: !no_refine,
+                target_fps,
+                frames,
+                screenshot,
+            };
+            cmd::view::run(&input, &opts)
         }
         Some(Command::Report {
             which: ReportKind::Paper { models, quick },

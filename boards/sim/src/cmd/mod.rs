@@ -3,3 +3,4 @@
 pub mod bake;
 pub mod info;
 pub mod render;
+pub mod view;
