@@ -1,6 +1,6 @@
 //! # pocketsplat-core
 //!
-//! Everything that runs on the device: the hierarchical point formats (tri-grids, and later QSplat),
+//! Everything that runs on the device: the hierarchical point formats (tri-grids and QSplat),
 //! their integer-only traversal, the raster and the shading tables. `no_std`, no heap.
 //!
 //! The writers live next to the readers so that each byte layout is defined in one place; they and the
@@ -21,6 +21,8 @@ pub mod crc;
 pub mod fixed;
 pub mod lod;
 pub mod normal;
+#[cfg(feature = "qsplat")]
+pub mod qs;
 pub mod raster;
 pub mod shade;
 #[cfg(feature = "shadows")]

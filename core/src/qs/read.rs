@@ -1,0 +1,1145 @@
+//! Reading `.qs` files: a raw layer of bounds-checked reads in the file's byte order, then [`QSplat`],
+//! a view validated once by [`QSplat::open`] whose accessors cannot panic afterwards.
+//!
+//! `open` detects the byte order from the fragment lengths, walks every tree once (pointers in bounds
+//! and forward, table indices valid, leaf counts as announced, no bytes left over) and keeps only
+//! counts: the trees are read in place, so a file in flash costs no RAM.
+#![deny(clippy::float_arithmetic)]
+
+use super::table::SPHERE_COUNT;
+use super::{
+    BOUNDS_COMMENT_PREFIX, COMMENT_HEADER_BYTES, HEADER_BYTES, MAGIC, MAX_DEPTH, OPT_COLOR,
+    OPT_COMMENT, POINTER_BYTES,
+};
+
+/// What is wrong with a `.qs` file. Each variant carries the offending value and, where it has one,
+/// the byte offset in the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum QsError {
+    /// Shorter than a comment fragment's header (20 bytes).
+    TooShort(usize),
+    /// Larger than the 32-bit offsets of the format allow.
+    TooLarge(usize),
+    /// A fragment does not start with `QSplat11`.
+    BadMagic {
+        /// Offset of the fragment.
+        offset: u32,
+        /// The eight bytes found.
+        magic: [u8; 8],
+    },
+    /// In neither byte order do the fragment lengths add up to the file: the length at `offset` is
+    /// the first that does not fit (read big-endian).
+    BadFragmentLength {
+        /// Offset of the fragment.
+        offset: u32,
+        /// Its length field, big-endian.
+        length: u32,
+    },
+    /// Unknown bits in a fragment's options.
+    UnknownOptions {
+        /// Offset of the fragment.
+        offset: u32,
+        /// The options word.
+        options: u32,
+    },
+    /// The file holds only comments.
+    NoTree,
+    /// A tree fragment is shorter than its 40-byte header.
+    TreeTooShort {
+        /// Offset of the fragment.
+        offset: u32,
+        /// Its length.
+        length: u32,
+    },
+    /// The root sphere is not finite or its radius is not positive.
+    BadRootSphere {
+        /// Offset of the fragment.
+        offset: u32,
+    },
+    /// The root has a child count other than 2, 3 or 4.
+    BadRootChildren {
+        /// Offset of the fragment.
+        offset: u32,
+        /// The count found.
+        children: u32,
+    },
+    /// A sibling group runs past the end of its fragment.
+    OutOfBounds {
+        /// Offset of the group (or of its pointer).
+        offset: u32,
+    },
+    /// A group pointer points back into or before its own group, or past the fragment.
+    BadPointer {
+        /// Offset of the pointer.
+        offset: u32,
+        /// Its value.
+        pointer: i32,
+    },
+    /// A node's position/radius index is not in the 7621-entry table.
+    BadSphereIndex {
+        /// Offset of the node.
+        offset: u32,
+        /// The index.
+        index: u16,
+    },
+    /// A leaf has the grandchildren bit set.
+    LeafWithGrandchildren {
+        /// Offset of the node.
+        offset: u32,
+    },
+    /// A node has children but its sibling group has no pointer to find them.
+    ChildrenWithoutPointer {
+        /// Offset of the node.
+        offset: u32,
+    },
+    /// The tree is deeper than [`MAX_DEPTH`] levels below the root.
+    TooDeep {
+        /// Offset of the node that goes too deep.
+        offset: u32,
+    },
+    /// Groups overlap: the walk reads more node bytes than the fragment holds.
+    Overlap {
+        /// Offset of the group where the count ran over.
+        offset: u32,
+    },
+    /// The leaves found are not the number the header announces.
+    LeafCount {
+        /// Offset of the fragment.
+        offset: u32,
+        /// The header's count.
+        expected: u32,
+        /// Leaves found.
+        found: u32,
+    },
+    /// Bytes after the tree that are more than padding to 4 bytes.
+    UnusedBytes {
+        /// Offset of the fragment.
+        offset: u32,
+        /// Bytes not reached by the tree.
+        unused: u32,
+    },
+}
+
+impl core::error::Error for QsError {}
+
+impl core::fmt::Display for QsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            QsError::TooShort(n) => write!(f, "file is {n} bytes, too short for a .qs fragment"),
+            QsError::TooLarge(n) => write!(f, "file is {n} bytes; .qs offsets are 32-bit"),
+            QsError::BadMagic { offset, magic } => write!(
+                f,
+                "byte {offset}: not a QSplat version 11 fragment (magic {magic:02x?}, expected \"QSplat11\")"
+            ),
+            QsError::BadFragmentLength { offset, length } => write!(
+                f,
+                "byte {offset}: fragment length {length} does not fit the file in either byte order"
+            ),
+            QsError::UnknownOptions { offset, options } => {
+                write!(f, "byte {offset}: unknown fragment options {options:#x}")
+            }
+            QsError::NoTree => write!(f, "file holds only comment fragments"),
+            QsError::TreeTooShort { offset, length } => write!(
+                f,
+                "byte {offset}: tree fragment of {length} bytes is shorter than its header"
+            ),
+            QsError::BadRootSphere { offset } => write!(
+                f,
+                "byte {offset}: root sphere is not finite or has no radius"
+            ),
+            QsError::BadRootChildren { offset, children } => write!(
+                f,
+                "byte {offset}: root has {children} children (2, 3 or 4 allowed)"
+            ),
+            QsError::OutOfBounds { offset } => {
+                write!(f, "byte {offset}: sibling group runs past its fragment")
+            }
+            QsError::BadPointer { offset, pointer } => write!(
+                f,
+                "byte {offset}: group pointer {pointer} does not point forward into the fragment"
+            ),
+            QsError::BadSphereIndex { offset, index } => write!(
+                f,
+                "byte {offset}: sphere index {index} is past the {SPHERE_COUNT}-entry table"
+            ),
+            QsError::LeafWithGrandchildren { offset } => {
+                write!(f, "byte {offset}: leaf node has the grandchildren bit set")
+            }
+            QsError::ChildrenWithoutPointer { offset } => write!(
+                f,
+                "byte {offset}: node has children but its group has no pointer"
+            ),
+            QsError::TooDeep { offset } => write!(
+                f,
+                "byte {offset}: tree is deeper than {MAX_DEPTH} levels"
+            ),
+            QsError::Overlap { offset } => {
+                write!(f, "byte {offset}: sibling groups overlap")
+            }
+            QsError::LeafCount {
+                offset,
+                expected,
+                found,
+            } => write!(
+                f,
+                "byte {offset}: fragment announces {expected} leaves but holds {found}"
+            ),
+            QsError::UnusedBytes { offset, unused } => write!(
+                f,
+                "byte {offset}: {unused} bytes after the tree are not part of it"
+            ),
+        }
+    }
+}
+
+/// Byte order of a file's multi-byte fields.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ByteOrder {
+    /// As QSplat 1.0 specifies and pocketsplat writes.
+    Big,
+    /// As QSplat 1.0 wrote on builds that did not swap bytes.
+    Little,
+}
+
+// ---- raw layer: bounds-checked reads in a byte order ------------------------------------------------
+
+fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
+    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+
+impl ByteOrder {
+    #[inline(always)]
+    fn u16(self, bytes: &[u8], at: usize) -> Option<u16> {
+        let b = take::<2>(bytes, at)?;
+        Some(match self {
+            ByteOrder::Big => u16::from_be_bytes(b),
+            ByteOrder::Little => u16::from_le_bytes(b),
+        })
+    }
+    #[inline(always)]
+    fn u32(self, bytes: &[u8], at: usize) -> Option<u32> {
+        let b = take::<4>(bytes, at)?;
+        Some(match self {
+            ByteOrder::Big => u32::from_be_bytes(b),
+            ByteOrder::Little => u32::from_le_bytes(b),
+        })
+    }
+    fn f32(self, bytes: &[u8], at: usize) -> Option<f32> {
+        self.u32(bytes, at).map(f32::from_bits)
+    }
+}
+
+// ---- typed layer --------------------------------------------------------------------------------------
+
+/// One node record: 4 bytes, or 6 with colour.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Node {
+    /// Index into the position/radius table ([`super::table`]).
+    pub sphere: u16,
+    /// Number of children: 0 (a leaf), 2, 3 or 4.
+    pub children: u8,
+    /// The child group is preceded by a pointer: not all children are leaves.
+    pub grandchildren: bool,
+    /// 14-bit normal index ([`super::normal`]).
+    pub normal: u16,
+    /// 2-bit normal-cone code.
+    pub cone: u8,
+    /// RGB565 colour, when the fragment has colours.
+    pub color: Option<u16>,
+}
+
+impl Node {
+    /// Packs the record as the file stores it (big-endian).
+    pub fn to_bytes(&self) -> [u8; 6] {
+        let code = match self.children {
+            0 => 0u8,
+            n => n.saturating_sub(1).min(3),
+        };
+        let s = self.sphere & 0x1FFF;
+        let b1 = ((s & 31) as u8) << 3 | u8::from(self.grandchildren) << 2 | code;
+        let nc = (self.normal & 0x3FFF) << 2 | u16::from(self.cone & 3);
+        let [c0, c1] = self.color.unwrap_or(0).to_be_bytes();
+        let [n0, n1] = nc.to_be_bytes();
+        [(s >> 5) as u8, b1, n0, n1, c0, c1]
+    }
+}
+
+/// A sibling group: the children of one parent, stored contiguously, optionally preceded by a pointer
+/// to the first child group of its first non-leaf member.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Group {
+    /// Offset of the pointer within the fragment, when there is one.
+    pub pointer: Option<u32>,
+    /// Offset of the first node within the fragment.
+    pub first: u32,
+    /// Number of nodes (2–4).
+    pub count: u8,
+}
+
+/// One tree fragment: a header with the root sphere, then its nodes in breadth-first order.
+#[derive(Clone, Copy, Debug)]
+pub struct Tree<'a> {
+    bytes: &'a [u8],
+    order: ByteOrder,
+    offset: u32,
+    leaves: u32,
+    color: bool,
+    center: [f32; 3],
+    radius: f32,
+    root: Group,
+}
+
+impl<'a> Tree<'a> {
+    /// Offset of the fragment in the file.
+    pub fn offset(&self) -> u32 {
+        self.offset
+    }
+    /// The fragment's bytes, header included.
+    pub fn bytes(&self) -> &'a [u8] {
+        self.bytes
+    }
+    /// Leaf points.
+    pub fn leaves(&self) -> u32 {
+        self.leaves
+    }
+    /// Whether nodes carry RGB565 colours (6-byte nodes).
+    pub fn has_color(&self) -> bool {
+        self.color
+    }
+    /// Bytes per node record.
+    pub fn node_bytes(&self) -> u32 {
+        if self.color {
+            6
+        } else {
+            4
+        }
+    }
+    /// Centre of the root sphere, model units.
+    pub fn center(&self) -> [f32; 3] {
+        self.center
+    }
+    /// Radius of the root sphere, model units.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+    /// The root's children (the root itself has no record: its sphere is in the header and it has
+    /// no normal).
+    pub fn root_group(&self) -> Group {
+        self.root
+    }
+
+    /// The node record at `at` (zeros where the fragment ends; never after [`QSplat::open`]).
+    #[inline]
+    pub fn node(&self, at: u32) -> Node {
+        let at = at as usize;
+        let (Some(b0), Some(b1)) = (self.bytes.get(at), self.bytes.get(at + 1)) else {
+            return Node::default();
+        };
+        let nc = self.order.u16(self.bytes, at + 2).unwrap_or(0);
+        let code = b1 & 3;
+        Node {
+            sphere: u16::from(*b0) << 5 | u16::from(b1 >> 3),
+            children: if code == 0 { 0 } else { code + 1 },
+            grandchildren: b1 & 4 != 0,
+            normal: nc >> 2,
+            cone: (nc & 3) as u8,
+            color: if self.color {
+                Some(self.order.u16(self.bytes, at + 4).unwrap_or(0))
+            } else {
+                None
+            },
+        }
+    }
+
+    /// The 32-bit group pointer at `at` (0 where the fragment ends).
+    #[inline]
+    pub fn pointer(&self, at: u32) -> i32 {
+        self.order.u32(self.bytes, at as usize).unwrap_or(0) as i32
+    }
+
+    /// The nodes of `group` in order, each with its own child group.
+    #[inline]
+    pub fn children(&self, group: Group) -> Children<'a> {
+        let cursor = match group.pointer {
+            Some(p) => i64::from(p) + i64::from(self.pointer(p)),
+            None => 0,
+        };
+        Children {
+            tree: *self,
+            at: group.first,
+            left: group.count,
+            cursor: u32::try_from(cursor).unwrap_or(u32::MAX),
+        }
+    }
+}
+
+/// Iterator over a sibling group: `(offset, node, child group)`.
+#[derive(Clone, Debug)]
+pub struct Children<'a> {
+    tree: Tree<'a>,
+    at: u32,
+    left: u8,
+    cursor: u32,
+}
+
+impl Iterator for Children<'_> {
+    type Item = (u32, Node, Option<Group>);
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let at = self.at;
+        let node = self.tree.node(at);
+        self.at = at.saturating_add(self.tree.node_bytes());
+        let group = (node.children > 0).then(|| {
+            let pointer = node.grandchildren.then_some(self.cursor);
+            let first =
+                self.cursor
+                    .saturating_add(if node.grandchildren { POINTER_BYTES } else { 0 });
+            self.cursor = first.saturating_add(u32::from(node.children) * self.tree.node_bytes());
+            Group {
+                pointer,
+                first,
+                count: node.children,
+            }
+        });
+        Some((at, node, group))
+    }
+}
+
+/// One fragment, as the file lists them.
+#[derive(Clone, Copy, Debug)]
+pub enum Fragment<'a> {
+    /// A comment: its text (padding included).
+    Comment(&'a [u8]),
+    /// A tree.
+    Tree(Tree<'a>),
+}
+
+/// What a file holds, counted once by [`QSplat::open`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct QsCounts {
+    /// Fragments, comments included.
+    pub fragments: u32,
+    /// Comment fragments.
+    pub comments: u32,
+    /// Tree fragments.
+    pub trees: u32,
+    /// Leaf nodes (the points).
+    pub leaves: u64,
+    /// Interior node records (the roots, which have none, not counted).
+    pub interior: u64,
+    /// Group pointers.
+    pub pointers: u64,
+    /// Deepest level below a root (the root's children are level 1).
+    pub max_depth: u8,
+    /// Tree fragments with colours.
+    pub color_trees: u32,
+    /// Bytes of fragment headers (comments included) and padding.
+    pub header_bytes: u64,
+    /// Bytes of node records.
+    pub node_bytes: u64,
+}
+
+/// A validated `.qs` file.
+#[derive(Clone, Copy, Debug)]
+pub struct QSplat<'a> {
+    bytes: &'a [u8],
+    order: ByteOrder,
+    counts: QsCounts,
+}
+
+/// Iterator over a file's fragments.
+#[derive(Clone, Debug)]
+pub struct Fragments<'a> {
+    bytes: &'a [u8],
+    order: ByteOrder,
+    at: usize,
+}
+
+impl<'a> Iterator for Fragments<'a> {
+    type Item = Fragment<'a>;
+
+    fn next(&mut self) -> Option<Fragment<'a>> {
+        let at = self.at;
+        let length = self.order.u32(self.bytes, at + 8)? as usize;
+        let frag = self.bytes.get(at..at.checked_add(length)?)?;
+        self.at = at + length.max(1);
+        let options = self.order.u32(frag, 16)?;
+        if options & OPT_COMMENT != 0 {
+            return Some(Fragment::Comment(frag.get(COMMENT_HEADER_BYTES..)?));
+        }
+        Some(Fragment::Tree(tree_header(frag, self.order, at as u32)?))
+    }
+}
+
+/// The typed header of a tree fragment (no validation beyond bounds).
+fn tree_header(frag: &[u8], order: ByteOrder, offset: u32) -> Option<Tree<'_>> {
+    let leaves = order.u32(frag, 12)?;
+    let color = order.u32(frag, 16)? & OPT_COLOR != 0;
+    let f = |i: usize| order.f32(frag, 20 + 4 * i);
+    let center = [f(0)?, f(1)?, f(2)?];
+    let radius = f(3)?;
+    let children = order.u32(frag, 36)?;
+    let node_bytes = if color { 6 } else { 4 };
+    let count = u8::try_from(children).unwrap_or(u8::MAX);
+    // The root's group starts with a pointer, except that QSplat 1.0 wrote none for a model of
+    // exactly 4 leaves. Only when every root child is a leaf can the pointer be missing, and then the
+    // fragment length tells: the pointer adds exactly 4 bytes.
+    let bare = HEADER_BYTES as u64 + u64::from(children) * node_bytes;
+    let pointer = !(u64::from(leaves) == u64::from(children) && (frag.len() as u64) < bare + 4);
+    let root = Group {
+        pointer: pointer.then_some(HEADER_BYTES as u32),
+        first: HEADER_BYTES as u32 + if pointer { POINTER_BYTES } else { 0 },
+        count,
+    };
+    Some(Tree {
+        bytes: frag,
+        order,
+        offset,
+        leaves,
+        color,
+        center,
+        radius,
+        root,
+    })
+}
+
+/// Walks the fragments' lengths in one byte order: `Ok` when they add up to the file exactly.
+fn chain(bytes: &[u8], order: ByteOrder) -> Result<(), QsError> {
+    let mut at = 0usize;
+    while at < bytes.len() {
+        let magic = take::<8>(bytes, at).unwrap_or([0; 8]);
+        if magic != MAGIC {
+            return Err(QsError::BadMagic {
+                offset: at as u32,
+                magic,
+            });
+        }
+        let length = order.u32(bytes, at + 8).unwrap_or(0);
+        let fits = (length as usize) >= COMMENT_HEADER_BYTES
+            && at
+                .checked_add(length as usize)
+                .is_some_and(|end| end <= bytes.len());
+        if !fits {
+            return Err(QsError::BadFragmentLength {
+                offset: at as u32,
+                length: ByteOrder::Big.u32(bytes, at + 8).unwrap_or(0),
+            });
+        }
+        at += length as usize;
+    }
+    Ok(())
+}
+
+/// Running totals of one tree's validation walk.
+struct Walk<'t, 'a> {
+    tree: &'t Tree<'a>,
+    /// Node and pointer bytes reached so far.
+    bytes: u64,
+    /// Bytes the fragment has for them.
+    budget: u64,
+    leaves: u64,
+    interior: u64,
+    pointers: u64,
+    max_depth: u8,
+}
+
+impl Walk<'_, '_> {
+    fn group(&mut self, g: Group, depth: u8) -> Result<(), QsError> {
+        let nb = u64::from(self.tree.node_bytes());
+        let len = self.tree.bytes.len() as u64;
+        let start = g.pointer.unwrap_or(g.first);
+        let end = u64::from(g.first) + u64::from(g.count) * nb;
+        if end > len {
+            return Err(QsError::OutOfBounds { offset: start });
+        }
+        self.bytes += end - u64::from(start);
+        if self.bytes > self.budget {
+            return Err(QsError::Overlap { offset: start });
+        }
+        if let Some(p) = g.pointer {
+            self.pointers += 1;
+            let pointer = self.tree.pointer(p);
+            let target = i64::from(p) + i64::from(pointer);
+            if target < end as i64 || target > len as i64 {
+                // A group whose members are all leaves needs no target (QSplat 1.0's root group of
+                // a 2- or 3-leaf model has a pointer anyway).
+                let any_children = self.tree.children(g).any(|(_, n, _)| n.children > 0);
+                if any_children {
+                    return Err(QsError::BadPointer { offset: p, pointer });
+                }
+            }
+        }
+        self.max_depth = self.max_depth.max(depth);
+        for (at, node, child) in self.tree.children(g) {
+            if usize::from(node.sphere) >= SPHERE_COUNT {
+                return Err(QsError::BadSphereIndex {
+                    offset: self.tree.offset + at,
+                    index: node.sphere,
+                });
+            }
+            match child {
+                None => {
+                    if node.grandchildren {
+                        return Err(QsError::LeafWithGrandchildren {
+                            offset: self.tree.offset + at,
+                        });
+                    }
+                    self.leaves += 1;
+                }
+                Some(child) => {
+                    if g.pointer.is_none() {
+                        return Err(QsError::ChildrenWithoutPointer {
+                            offset: self.tree.offset + at,
+                        });
+                    }
+                    if usize::from(depth) >= MAX_DEPTH {
+                        return Err(QsError::TooDeep {
+                            offset: self.tree.offset + at,
+                        });
+                    }
+                    self.interior += 1;
+                    self.group(child, depth + 1)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<'a> QSplat<'a> {
+    /// Validates a whole file once: fragments, byte order, every tree's structure.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`QsError`] naming the offending value and offset.
+    pub fn open(bytes: &'a [u8]) -> Result<Self, QsError> {
+        if bytes.len() < COMMENT_HEADER_BYTES {
+            return Err(QsError::TooShort(bytes.len()));
+        }
+        if u32::try_from(bytes.len()).is_err() {
+            return Err(QsError::TooLarge(bytes.len()));
+        }
+        let order = match chain(bytes, ByteOrder::Big) {
+            Ok(()) => ByteOrder::Big,
+            Err(e) => match chain(bytes, ByteOrder::Little) {
+                Ok(()) => ByteOrder::Little,
+                Err(_) => return Err(e),
+            },
+        };
+        let mut counts = QsCounts::default();
+        let mut at = 0usize;
+        while at < bytes.len() {
+            // `chain` checked every length and magic.
+            let length = order.u32(bytes, at + 8).unwrap_or(0) as usize;
+            let frag = bytes.get(at..at + length).unwrap_or(&[]);
+            let offset = at as u32;
+            at += length.max(1);
+            counts.fragments += 1;
+            let options = order.u32(frag, 16).unwrap_or(0);
+            if options & !(OPT_COLOR | OPT_COMMENT) != 0 {
+                return Err(QsError::UnknownOptions { offset, options });
+            }
+            if options & OPT_COMMENT != 0 {
+                counts.comments += 1;
+                counts.header_bytes += length as u64;
+                continue;
+            }
+            let Some(tree) = tree_header(frag, order, offset).filter(|_| length >= HEADER_BYTES)
+            else {
+                return Err(QsError::TreeTooShort {
+                    offset,
+                    length: length as u32,
+                });
+            };
+            let finite = tree.center.iter().all(|c| c.is_finite()) && tree.radius.is_finite();
+            if !finite || tree.radius.is_sign_negative() || tree.radius.to_bits() == 0 {
+                return Err(QsError::BadRootSphere { offset });
+            }
+            let children = order.u32(frag, 36).unwrap_or(0);
+            if !(2..=4).contains(&children) {
+                return Err(QsError::BadRootChildren { offset, children });
+            }
+            let mut walk = Walk {
+                tree: &tree,
+                bytes: 0,
+                budget: (length - HEADER_BYTES) as u64,
+                leaves: 0,
+                interior: 0,
+                pointers: 0,
+                max_depth: 0,
+            };
+            walk.group(tree.root, 1)?;
+            if walk.leaves != u64::from(tree.leaves) {
+                return Err(QsError::LeafCount {
+                    offset,
+                    expected: tree.leaves,
+                    found: u32::try_from(walk.leaves).unwrap_or(u32::MAX),
+                });
+            }
+            let unused = walk.budget - walk.bytes;
+            if unused >= 4 {
+                return Err(QsError::UnusedBytes {
+                    offset,
+                    unused: unused as u32,
+                });
+            }
+            counts.trees += 1;
+            counts.color_trees += u32::from(tree.color);
+            counts.leaves += walk.leaves;
+            counts.interior += walk.interior;
+            counts.pointers += walk.pointers;
+            counts.max_depth = counts.max_depth.max(walk.max_depth);
+            counts.node_bytes += (walk.leaves + walk.interior) * u64::from(tree.node_bytes());
+            counts.header_bytes += HEADER_BYTES as u64 + unused;
+        }
+        if counts.trees == 0 {
+            return Err(QsError::NoTree);
+        }
+        Ok(Self {
+            bytes,
+            order,
+            counts,
+        })
+    }
+
+    /// The file's bytes.
+    pub fn bytes(&self) -> &'a [u8] {
+        self.bytes
+    }
+    /// The byte order detected.
+    pub fn byte_order(&self) -> ByteOrder {
+        self.order
+    }
+    /// What the file holds.
+    pub fn counts(&self) -> &QsCounts {
+        &self.counts
+    }
+    /// Every fragment in file order.
+    pub fn fragments(&self) -> Fragments<'a> {
+        Fragments {
+            bytes: self.bytes,
+            order: self.order,
+            at: 0,
+        }
+    }
+    /// The tree fragments in file order.
+    pub fn trees(&self) -> impl Iterator<Item = Tree<'a>> + 'a {
+        self.fragments().filter_map(|f| match f {
+            Fragment::Tree(t) => Some(t),
+            Fragment::Comment(_) => None,
+        })
+    }
+    /// The comment fragments' texts (trailing NUL padding removed).
+    pub fn comments(&self) -> impl Iterator<Item = &'a [u8]> + 'a {
+        self.fragments().filter_map(|f| match f {
+            Fragment::Comment(text) => {
+                let end = text.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
+                Some(&text[..end])
+            }
+            Fragment::Tree(_) => None,
+        })
+    }
+    /// The model's bounding box, `[min, max]` in model units: the one pocketsplat's writer records in
+    /// its comment fragment (`pocketsplat bounds=…`, the mesh's box, so that views of a `.qs` and a
+    /// `.tg` of the same mesh frame it identically), else the box around every root sphere.
+    pub fn bounds(&self) -> [[f32; 3]; 2] {
+        self.comments()
+            .find_map(parse_bounds)
+            .unwrap_or_else(|| self.root_bounds())
+    }
+
+    /// The box around every tree's root sphere.
+    #[allow(clippy::float_arithmetic)] // setup, once per file
+    pub fn root_bounds(&self) -> [[f32; 3]; 2] {
+        let mut b = [[f32::MAX; 3], [f32::MIN; 3]];
+        for t in self.trees() {
+            for (k, c) in t.center.iter().enumerate() {
+                b[0][k] = b[0][k].min(c - t.radius);
+                b[1][k] = b[1][k].max(c + t.radius);
+            }
+        }
+        b
+    }
+}
+
+/// The bounding box in a comment `pocketsplat … bounds=x0,y0,z0,x1,y1,z1 …`, when it is one and
+/// every number is finite with min ≤ max.
+pub fn parse_bounds(comment: &[u8]) -> Option<[[f32; 3]; 2]> {
+    let text = core::str::from_utf8(comment).ok()?;
+    if !text.starts_with(BOUNDS_COMMENT_PREFIX) {
+        return None;
+    }
+    let list = text
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("bounds="))?;
+    let mut v = [0f32; 6];
+    let mut parts = list.split(',');
+    for x in &mut v {
+        *x = parts.next()?.parse().ok().filter(|x: &f32| x.is_finite())?;
+    }
+    if parts.next().is_some() || (0..3).any(|k| v[k] > v[k + 3]) {
+        return None;
+    }
+    Some([[v[0], v[1], v[2]], [v[3], v[4], v[5]]])
+}
+
+#[cfg(test)]
+mod tests {
+    //! Files built by hand from the format description, as QSplat 1.0 lays them out (no original
+    //! `.qs` file was available): both byte orders, a comment, the 4-leaf quirk, and every error.
+    use super::*;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// A node record in a byte order.
+    fn node(
+        order: ByteOrder,
+        sphere: u16,
+        children: u8,
+        grand: bool,
+        normal: u16,
+        cone: u8,
+    ) -> [u8; 4] {
+        let b = Node {
+            sphere,
+            children,
+            grandchildren: grand,
+            normal,
+            cone,
+            color: None,
+        }
+        .to_bytes();
+        let nc = u16::from_be_bytes([b[2], b[3]]);
+        let nc = match order {
+            ByteOrder::Big => nc.to_be_bytes(),
+            ByteOrder::Little => nc.to_le_bytes(),
+        };
+        [b[0], b[1], nc[0], nc[1]]
+    }
+
+    fn u32b(order: ByteOrder, v: u32) -> [u8; 4] {
+        match order {
+            ByteOrder::Big => v.to_be_bytes(),
+            ByteOrder::Little => v.to_le_bytes(),
+        }
+    }
+
+    const PZ: u16 = 4 * 2704 + 26 * 52 + 26; // a +Z normal
+
+    /// A comment, then a 7-leaf tree:
+    /// root → [A → (A1, A2), B, C → (C1, C2 → (C2a, C2b), C3)].
+    fn hand_made(order: ByteOrder) -> Vec<u8> {
+        let mut f = Vec::new();
+        f.extend_from_slice(b"QSplat11");
+        f.extend_from_slice(&u32b(order, 36));
+        f.extend_from_slice(&u32b(order, 0));
+        f.extend_from_slice(&u32b(order, 2));
+        f.extend_from_slice(b"made by hand\0\0\0\0");
+        let t = f.len();
+        f.extend_from_slice(b"QSplat11");
+        f.extend_from_slice(&u32b(order, 88));
+        f.extend_from_slice(&u32b(order, 7));
+        f.extend_from_slice(&u32b(order, 0));
+        for v in [1.0f32, 2.0, 3.0, 0.5] {
+            f.extend_from_slice(&u32b(order, v.to_bits()));
+        }
+        f.extend_from_slice(&u32b(order, 3));
+        // 40: root pointer → A's group at 56.
+        f.extend_from_slice(&u32b(order, 16));
+        f.extend_from_slice(&node(order, 100, 2, false, PZ, 1)); // 44 A
+        f.extend_from_slice(&node(order, 200, 0, false, PZ, 0)); // 48 B
+        f.extend_from_slice(&node(order, 300, 3, true, PZ, 2)); // 52 C
+        f.extend_from_slice(&node(order, 1, 0, false, 5, 0)); // 56 A1
+        f.extend_from_slice(&node(order, 2, 0, false, 6, 0)); // 60 A2
+        f.extend_from_slice(&u32b(order, 16)); // 64: C's pointer → C2's group at 80
+        f.extend_from_slice(&node(order, 3, 0, false, 7, 0)); // 68 C1
+        f.extend_from_slice(&node(order, 7620, 2, false, 8, 3)); // 72 C2
+        f.extend_from_slice(&node(order, 5, 0, false, 9, 0)); // 76 C3
+        f.extend_from_slice(&node(order, 6, 0, false, 10, 0)); // 80 C2a
+        f.extend_from_slice(&node(order, 7, 0, false, 11, 0)); // 84 C2b
+        assert_eq!(f.len() - t, 88);
+        f
+    }
+
+    fn breadth_first(tree: &Tree<'_>) -> Vec<(u16, u8, u16, u8)> {
+        let mut out = Vec::new();
+        let mut queue = std::vec![tree.root_group()];
+        let mut k = 0;
+        while k < queue.len() {
+            for (_, n, g) in tree.children(queue[k]) {
+                out.push((n.sphere, n.children, n.normal, n.cone));
+                queue.extend(g);
+            }
+            k += 1;
+        }
+        out
+    }
+
+    #[test]
+    fn a_hand_made_file_reads_in_both_byte_orders() {
+        let want = std::vec![
+            (100, 2, PZ, 1),
+            (200, 0, PZ, 0),
+            (300, 3, PZ, 2),
+            (1, 0, 5, 0),
+            (2, 0, 6, 0),
+            (3, 0, 7, 0),
+            (7620, 2, 8, 3),
+            (5, 0, 9, 0),
+            (6, 0, 10, 0),
+            (7, 0, 11, 0),
+        ];
+        for order in [ByteOrder::Big, ByteOrder::Little] {
+            let bytes = hand_made(order);
+            let q = QSplat::open(&bytes).unwrap();
+            assert_eq!(q.byte_order(), order);
+            let c = q.counts();
+            assert_eq!((c.fragments, c.comments, c.trees), (2, 1, 1));
+            assert_eq!(
+                (c.leaves, c.interior, c.pointers, c.max_depth),
+                (7, 3, 2, 3)
+            );
+            assert_eq!(
+                c.header_bytes + c.node_bytes + 4 * c.pointers,
+                bytes.len() as u64
+            );
+            assert_eq!(q.comments().next(), Some(&b"made by hand"[..]));
+            let tree = q.trees().next().unwrap();
+            assert_eq!((tree.center(), tree.radius()), ([1.0, 2.0, 3.0], 0.5));
+            assert_eq!(tree.offset(), 36);
+            assert_eq!(breadth_first(&tree), want);
+            // No pocketsplat comment: framed by the root sphere.
+            assert_eq!(q.bounds(), [[0.5, 1.5, 2.5], [1.5, 2.5, 3.5]]);
+        }
+    }
+
+    /// A tree of 4 leaves under the root, with or without the root pointer.
+    fn four_leaves(pointer: bool) -> Vec<u8> {
+        let o = ByteOrder::Big;
+        let mut f = Vec::new();
+        f.extend_from_slice(b"QSplat11");
+        f.extend_from_slice(&u32b(o, if pointer { 60 } else { 56 }));
+        f.extend_from_slice(&u32b(o, 4));
+        f.extend_from_slice(&u32b(o, 0));
+        for v in [0.0f32, 0.0, 0.0, 1.0] {
+            f.extend_from_slice(&u32b(o, v.to_bits()));
+        }
+        f.extend_from_slice(&u32b(o, 4));
+        if pointer {
+            f.extend_from_slice(&u32b(o, 20));
+        }
+        for s in 0..4 {
+            f.extend_from_slice(&node(o, s, 0, false, PZ, 0));
+        }
+        f
+    }
+
+    #[test]
+    fn the_four_leaf_root_quirk_is_read_by_length() {
+        for pointer in [false, true] {
+            let bytes = four_leaves(pointer);
+            let q = QSplat::open(&bytes).unwrap();
+            let tree = q.trees().next().unwrap();
+            assert_eq!(tree.root_group().pointer.is_some(), pointer);
+            assert_eq!(q.counts().leaves, 4);
+            assert_eq!(breadth_first(&tree).len(), 4);
+        }
+    }
+
+    /// A chain: each level holds an interior node and a leaf, `interior` levels deep.
+    fn chain_file(interior: usize) -> Vec<u8> {
+        let o = ByteOrder::Big;
+        let len = 40 + 12 * interior + 8;
+        let mut f = Vec::new();
+        f.extend_from_slice(b"QSplat11");
+        f.extend_from_slice(&u32b(o, len as u32));
+        f.extend_from_slice(&u32b(o, interior as u32 + 2));
+        f.extend_from_slice(&u32b(o, 0));
+        for v in [0.0f32, 0.0, 0.0, 1.0] {
+            f.extend_from_slice(&u32b(o, v.to_bits()));
+        }
+        f.extend_from_slice(&u32b(o, 2));
+        for level in 0..interior {
+            f.extend_from_slice(&u32b(o, 12));
+            let grand = level + 1 < interior;
+            f.extend_from_slice(&node(o, 7620, 2, grand, PZ, 3));
+            f.extend_from_slice(&node(o, 0, 0, false, PZ, 0));
+        }
+        f.extend_from_slice(&node(o, 0, 0, false, PZ, 0));
+        f.extend_from_slice(&node(o, 0, 0, false, PZ, 0));
+        f
+    }
+
+    #[test]
+    fn depth_is_limited() {
+        let ok = chain_file(MAX_DEPTH - 1);
+        assert_eq!(
+            QSplat::open(&ok).unwrap().counts().max_depth as usize,
+            MAX_DEPTH
+        );
+        let deep = chain_file(MAX_DEPTH);
+        assert!(matches!(QSplat::open(&deep), Err(QsError::TooDeep { .. })));
+    }
+
+    fn set_u32(f: &mut [u8], at: usize, v: u32) {
+        f[at..at + 4].copy_from_slice(&v.to_be_bytes());
+    }
+
+    #[test]
+    fn every_problem_is_a_specific_error() {
+        let good = hand_made(ByteOrder::Big);
+        let t = 36; // the tree fragment
+        assert_eq!(
+            QSplat::open(&good[..10]).unwrap_err(),
+            QsError::TooShort(10)
+        );
+        let mut f = good.clone();
+        f[0] = b'X';
+        assert!(matches!(
+            QSplat::open(&f),
+            Err(QsError::BadMagic { offset: 0, .. })
+        ));
+        let mut f = good.clone();
+        set_u32(&mut f, t + 8, 1000);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::BadFragmentLength {
+                offset: 36,
+                length: 1000
+            }
+        );
+        let mut f = good.clone();
+        set_u32(&mut f, t + 16, 4);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::UnknownOptions {
+                offset: 36,
+                options: 4
+            }
+        );
+        assert_eq!(QSplat::open(&good[..36]).unwrap_err(), QsError::NoTree);
+        let mut f = good.clone();
+        set_u32(&mut f, t + 36, 5);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::BadRootChildren {
+                offset: 36,
+                children: 5
+            }
+        );
+        let mut f = good.clone();
+        set_u32(&mut f, t + 32, f32::NAN.to_bits());
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::BadRootSphere { offset: 36 }
+        );
+        // B (at 48) gets sphere index 8000.
+        let mut f = good.clone();
+        f[t + 48..t + 52].copy_from_slice(&node(ByteOrder::Big, 8000, 0, false, PZ, 0));
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::BadSphereIndex {
+                offset: 36 + 48,
+                index: 8000
+            }
+        );
+        let mut f = good.clone();
+        f[t + 49] |= 4;
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::LeafWithGrandchildren { offset: 36 + 48 }
+        );
+        let mut f = good.clone();
+        set_u32(&mut f, t + 40, (-4i32) as u32);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::BadPointer {
+                offset: 40,
+                pointer: -4
+            }
+        );
+        let mut f = good.clone();
+        set_u32(&mut f, t + 12, 8);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::LeafCount {
+                offset: 36,
+                expected: 8,
+                found: 7
+            }
+        );
+        let mut f = good.clone();
+        f.extend_from_slice(&[0; 8]);
+        set_u32(&mut f, t + 8, 96);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::UnusedBytes {
+                offset: 36,
+                unused: 8
+            }
+        );
+        // Cut the last node: C2's group runs past the fragment.
+        let mut f = good[..good.len() - 4].to_vec();
+        set_u32(&mut f, t + 8, 84);
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::OutOfBounds { offset: 80 }
+        );
+        // A has children but the root group... give B children instead: A's group has no pointer.
+        let mut f = good.clone();
+        f[t + 56..t + 60].copy_from_slice(&node(ByteOrder::Big, 1, 2, false, 5, 0));
+        assert_eq!(
+            QSplat::open(&f).unwrap_err(),
+            QsError::ChildrenWithoutPointer { offset: 36 + 56 }
+        );
+        // Every error names itself.
+        let e = std::format!(
+            "{}",
+            QsError::BadSphereIndex {
+                offset: 7,
+                index: 9000
+            }
+        );
+        assert!(e.contains("9000") && e.contains("byte 7"), "{e}");
+    }
+
+    #[test]
+    fn mutated_files_never_panic() {
+        let good = hand_made(ByteOrder::Big);
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut opened = 0;
+        for _ in 0..20_000 {
+            let mut f = good.clone();
+            for _ in 0..1 + next() % 4 {
+                let i = (next() % f.len() as u64) as usize;
+                f[i] ^= 1 << (next() % 8);
+            }
+            let cut = if next() % 8 == 0 {
+                (next() % f.len() as u64) as usize
+            } else {
+                f.len()
+            };
+            if let Ok(q) = QSplat::open(&f[..cut]) {
+                opened += 1;
+                for tree in q.trees() {
+                    let _ = breadth_first(&tree);
+                }
+                let _ = q.bounds();
+            }
+        }
+        assert!(opened > 100, "some mutations stay valid: {opened}");
+    }
+}

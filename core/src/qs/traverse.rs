@@ -1,0 +1,588 @@
+//! The integer-only QSplat traversal (QSplat §2.1): per node, decode the sphere relative to the parent
+//! (a table look-up, three multiplies and three 64-bit multiply-adds), test it against the frustum
+//! (skipped below a node wholly inside), test its normal cone (skipped below a node facing the eye
+//! entirely), then draw it as a splat or descend. No floats here.
+#![deny(clippy::float_arithmetic)]
+
+use super::frame::{QsFrame, TreeFrame, ROOT_RADIUS, T_BITS};
+use super::read::{Group, Node, QSplat, Tree};
+use super::table::{unpack, SPHERES};
+use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
+use crate::fixed::{recip, SUBPIXEL_BITS};
+use crate::raster::Splat;
+use crate::splat::{NullSink, SampleSplat, ShadedRaster, SplatSink, Stats};
+
+/// A sink that can also take a sample's own RGB565 colour (QSplat nodes may carry one).
+pub trait ColorSink: SplatSink {
+    /// Draws (or records) one splat whose sample has colour `rgb565`.
+    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16);
+}
+
+/// Multiplies two RGB565 colours channel by channel (each channel as a fraction of its maximum).
+#[inline]
+pub fn modulate(a: u16, b: u16) -> u16 {
+    let ch = |shift: u32, max: u32, k: u32| {
+        let (x, y) = (u32::from(a) >> shift & max, u32::from(b) >> shift & max);
+        // x·y/max, rounded: k = 2¹⁶/max.
+        ((x * y * k + 32768) >> 16).min(max) << shift
+    };
+    (ch(11, 31, 2114) | ch(5, 63, 1040) | ch(0, 31, 2114)) as u16
+}
+
+/// The material's shading (light, view, ambient, highlight) modulated by the sample's colour: for a
+/// coloured model, give the shading table a white material.
+impl<const W: usize, const H: usize, const M: usize> ColorSink
+    for ShadedRaster<'_, '_, '_, W, H, M>
+{
+    #[inline]
+    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
+        let lit = if s.shadowed {
+            self.table.shadowed(s.attr)
+        } else {
+            self.table.color(s.attr)
+        };
+        self.fb.splat(
+            &Splat {
+                x_q4: s.x_q4,
+                y_q4: s.y_q4,
+                size_q4: s.size_q4,
+                depth: s.depth,
+                color: modulate(lit, rgb565),
+            },
+            self.kernel,
+        );
+    }
+}
+
+impl ColorSink for NullSink {
+    #[inline]
+    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
+        self.splat(s);
+        self.checksum = self.checksum.wrapping_add(u32::from(rgb565));
+    }
+}
+
+/// Any sink, with colours ignored.
+struct NoColor<'s, S>(&'s mut S);
+
+impl<S: SplatSink> SplatSink for NoColor<'_, S> {
+    #[inline(always)]
+    fn splat(&mut self, s: &SampleSplat) {
+        self.0.splat(s);
+    }
+}
+
+impl<S: SplatSink> ColorSink for NoColor<'_, S> {
+    #[inline(always)]
+    fn splat_colored(&mut self, s: &SampleSplat, _: u16) {
+        self.0.splat(s);
+    }
+}
+
+/// Draws one frame of `file` into `sink` with one material (colours ignored): every sample's
+/// attribute is its normal's 13-bit shading code.
+///
+/// The descent stops at leaves and where a node's projected diameter is at most the cutoff; it culls
+/// subtrees outside the frustum or behind the near plane and subtrees whose normal cone faces away,
+/// and stops testing below nodes wholly inside or wholly facing the eye. Each node is visited at most
+/// once, so the work is bounded by the file.
+pub fn render_qs<S: SplatSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S) -> Stats {
+    walk(file, frame, &mut NoColor(sink), false)
+}
+
+/// [`render_qs`], handing coloured samples to [`ColorSink::splat_colored`].
+pub fn render_qs_colored<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S) -> Stats {
+    walk(file, frame, sink, true)
+}
+
+fn walk<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S, colored: bool) -> Stats {
+    let mut stats = Stats::default();
+    for tree in file.trees() {
+        let tf = frame.tree(&tree);
+        let mut w = Walker {
+            tree,
+            tf: &tf,
+            frame,
+            sink: &mut *sink,
+            stats,
+            colored: colored && tree.has_color(),
+        };
+        w.root();
+        stats = w.stats;
+    }
+    stats
+}
+
+/// A decoded node: centre in model integers, projected centre, radius.
+#[derive(Clone, Copy)]
+struct Sphere {
+    c: [i32; 3],
+    xyw: [i32; 3],
+    r: i32,
+}
+
+/// Frustum tests off (the node is wholly inside) / backface tests off (the cone faces the eye).
+#[derive(Clone, Copy)]
+struct Flags {
+    inside: bool,
+    facing: bool,
+}
+
+/// Slack added to every plane extent, in `(X, Y, W)` units: the displacement tables round at every
+/// level (far below a pixel, which is `W` units).
+const PLANE_MARGIN: u64 = 256;
+
+/// `⌈r / 13⌉` for `0 ≤ r < 2³¹ − 12`, by a multiply (exact in this range).
+#[inline(always)]
+fn thirteenth_up(r: i32) -> i32 {
+    ((u64::from(r.max(0) as u32 + 12) * 330_382_100) >> 32) as i32
+}
+
+/// `(i / 52, i % 52)` for `i < 2¹⁵`, by a multiply.
+#[inline(always)]
+fn div52(i: u32) -> (u32, u32) {
+    let q = (i * 20165) >> 20;
+    (q, i - 52 * q)
+}
+
+/// The unit normal of a 14-bit index in Q14, or `None` for the codes that leave the unit sphere
+/// (never culled).
+#[inline]
+fn normal_q14(index: u16) -> Option<[i32; 3]> {
+    let i = u32::from(index);
+    if i >= normal::NORMAL_CODES {
+        return Some([0, 0, 16384]);
+    }
+    let (fu, v) = div52(i);
+    let (face, u) = div52(fu);
+    let major = i32::from(QS_MAJOR_Q14[(i % normal::FACE_CODES) as usize]);
+    if major < 0 {
+        return None;
+    }
+    let m = if face & 1 == 1 { -major } else { major };
+    let (u, v) = (
+        i32::from(QS_TAN_Q14[u as usize]),
+        i32::from(QS_TAN_Q14[v as usize]),
+    );
+    Some(match face >> 1 {
+        0 => [m, u, v],
+        1 => [v, m, u],
+        _ => [u, v, m],
+    })
+}
+
+struct Walker<'t, 'f, 's, S> {
+    tree: Tree<'t>,
+    tf: &'f TreeFrame,
+    frame: &'f QsFrame,
+    sink: &'s mut S,
+    stats: Stats,
+    colored: bool,
+}
+
+impl<S: ColorSink> Walker<'_, '_, '_, S> {
+    fn root(&mut self) {
+        self.stats.nodes_visited += 1;
+        let root = Sphere {
+            c: [0; 3],
+            xyw: self.tf.root,
+            r: ROOT_RADIUS,
+        };
+        let flags = Flags {
+            inside: false,
+            facing: !self.tf.backface,
+        };
+        // The root has no normal: it is never drawn or backface culled, only frustum tested.
+        let Some(inside) = self.frustum(&root) else {
+            self.stats.culled += 1;
+            return;
+        };
+        let flags = Flags { inside, ..flags };
+        self.group(self.tree.root_group(), &root, 1, flags);
+    }
+
+    fn group(&mut self, g: Group, parent: &Sphere, level: u8, flags: Flags) {
+        let r13 = thirteenth_up(parent.r);
+        for (at, node, child) in self.tree.children(g) {
+            self.node(at, &node, child, parent, r13, level, flags);
+        }
+    }
+
+    /// `Some(inside)` when the sphere meets the frustum (QSplat's flag: no more tests below a node
+    /// wholly inside), `None` when it is wholly outside a plane.
+    #[inline]
+    fn frustum(&self, s: &Sphere) -> Option<bool> {
+        let tf = self.tf;
+        let r = s.r.max(0) as u32;
+        let e = |k: usize| (tf.ext[k].apply(r) + PLANE_MARGIN) as i64;
+        let [x, y, w] = s.xyw.map(i64::from);
+        let near = i64::from(self.frame.near_w);
+        let f = [x, y, w - near, 240 * w - x, 320 * w - y];
+        let mut inside = true;
+        for (k, &v) in f.iter().enumerate() {
+            let ek = e(k);
+            if v + ek < 0 {
+                return None;
+            }
+            inside &= v - ek >= 0;
+        }
+        Some(inside)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn node(
+        &mut self,
+        at: u32,
+        node: &Node,
+        child: Option<Group>,
+        parent: &Sphere,
+        r13: i32,
+        level: u8,
+        mut flags: Flags,
+    ) {
+        self.stats.nodes_visited += 1;
+        // Validated below 7621; the parent's own sphere otherwise.
+        let e = unpack(
+            SPHERES
+                .get(usize::from(node.sphere))
+                .copied()
+                .unwrap_or(0xD000),
+        );
+        let (a, b, c) = (i32::from(e.a), i32::from(e.b), i32::from(e.c));
+        let t = &self.tf.t;
+        let (ta, tb, tc) = (
+            &t[0][(a + 12) as usize],
+            &t[1][(b + 12) as usize],
+            &t[2][(c + 12) as usize],
+        );
+        // Wrapping: a valid tree stays far inside i32 (every centre lies within about one root radius
+        // of the root's); a hostile one draws garbage but cannot overflow.
+        let step = |k: usize| {
+            let sum = i64::from(ta[k]) + i64::from(tb[k]) + i64::from(tc[k]);
+            ((i64::from(r13) * sum + (1 << (T_BITS - 1))) >> T_BITS) as i32
+        };
+        let s = Sphere {
+            c: [
+                parent.c[0].wrapping_add(a.wrapping_mul(r13)),
+                parent.c[1].wrapping_add(b.wrapping_mul(r13)),
+                parent.c[2].wrapping_add(c.wrapping_mul(r13)),
+            ],
+            xyw: [
+                parent.xyw[0].wrapping_add(step(0)),
+                parent.xyw[1].wrapping_add(step(1)),
+                parent.xyw[2].wrapping_add(step(2)),
+            ],
+            r: i32::from(e.s).wrapping_mul(r13),
+        };
+        if !flags.inside {
+            match self.frustum(&s) {
+                None => {
+                    self.stats.culled += 1;
+                    return;
+                }
+                Some(inside) => flags.inside = inside,
+            }
+        }
+        if !flags.facing && node.cone < normal::CONE_NEVER {
+            match self.backface(&s, node) {
+                Cone::Away => {
+                    self.stats.backfacing += 1;
+                    return;
+                }
+                Cone::Facing => flags.facing = true,
+                Cone::Unknown => {}
+            }
+        }
+        let w = s.xyw[2];
+        let near = self.frame.near_w;
+        match child {
+            Some(g) if !(w >= near && self.tf.lod.apply(s.r as u32) <= w as u64) => {
+                self.group(g, &s, level + 1, flags);
+            }
+            _ => {
+                if w < near {
+                    // A leaf whose centre is in front of the near plane.
+                    self.stats.culled += 1;
+                    return;
+                }
+                self.draw(at, node, &s, level);
+            }
+        }
+    }
+
+    /// The normal-cone test (QSplat §2.1) with `d = (eye − centre)·n` and `D = |eye − centre|`:
+    /// away when `d < −r` and `(d + r)² > D²·sin²θ`, facing when `d > r` and `(d − r)² > D²·sin²θ`.
+    #[inline]
+    fn backface(&self, s: &Sphere, node: &Node) -> Cone {
+        let Some(n) = normal_q14(node.normal) else {
+            return Cone::Unknown;
+        };
+        let tf = self.tf;
+        let lim = 1i32 << 24;
+        let v: [i64; 3] = core::array::from_fn(|k| {
+            i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim))
+        });
+        let d = (v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2])) >> 14;
+        // Radius in backface units, rounded up, plus the Q14 normal's error (|v|₁ / 2¹³).
+        let slack = (v[0].abs() + v[1].abs() + v[2].abs()) >> 13;
+        let r = (i64::from(s.r.max(0)) >> tf.bshift) + 2 + slack;
+        let r = r.min(i64::from(lim));
+        let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        // sin²θ ≤ ((c + 1)/4)⁴ = k/256.
+        let k = [1i64, 16, 81][usize::from(node.cone.min(2))];
+        if d < -r {
+            let e = d + r;
+            if 256 * e * e > k * d2 {
+                return Cone::Away;
+            }
+        } else if d > r {
+            let e = d - r;
+            if 256 * e * e > k * d2 {
+                return Cone::Facing;
+            }
+        }
+        Cone::Unknown
+    }
+
+    #[inline]
+    fn draw(&mut self, at: u32, node: &Node, s: &Sphere, level: u8) {
+        let f = self.frame;
+        let [x, y, w] = s.xyw;
+        let (rc, shift) = recip(w as u32);
+        let rc64 = i64::from(rc);
+        let sh = shift - SUBPIXEL_BITS;
+        let half = 1i64 << (sh - 1);
+        let x_q4 = ((i64::from(x) * rc64 + half) >> sh) as i32;
+        let y_q4 = ((i64::from(y) * rc64 + half) >> sh) as i32;
+        // size · W in Q4, then divided by W through the reciprocal.
+        let q = self.tf.size.apply(s.r.max(0) as u32);
+        let extra = (64 - q.leading_zeros()).saturating_sub(32);
+        let size_q4 = if shift > extra {
+            (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
+        } else {
+            i32::MAX
+        };
+        let dz = (w - f.depth_w0).max(0) as u64;
+        let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
+        let attr = QS_SHADE_CODE
+            .get(usize::from(node.normal))
+            .copied()
+            .unwrap_or(0);
+        self.stats.splats += 1;
+        self.stats.max_level = self.stats.max_level.max(level);
+        let sample = SampleSplat {
+            x_q4,
+            y_q4,
+            size_q4,
+            depth,
+            attr,
+            level,
+            index: self.tree.offset() + at,
+            shadowed: false,
+        };
+        match node.color {
+            Some(rgb) if self.colored => self.sink.splat_colored(&sample, rgb),
+            _ => self.sink.splat(&sample),
+        }
+    }
+}
+
+/// Outcome of a cone test.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Cone {
+    Away,
+    Facing,
+    Unknown,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn divisions_by_multiply_are_exact() {
+        for i in 0..1u32 << 15 {
+            assert_eq!(div52(i), (i / 52, i % 52), "{i}");
+        }
+        for r in (0..1i32 << 29)
+            .step_by(997)
+            .chain([0, 1, 12, 13, 14, (1 << 28) + 600])
+        {
+            assert_eq!(thirteenth_up(r), (r + 12) / 13, "{r}");
+        }
+    }
+
+    #[test]
+    #[allow(clippy::float_arithmetic)]
+    fn integer_normals_match_the_f64_decoder() {
+        for i in 0..16384u16 {
+            let f = normal::decode(i);
+            match normal_q14(i) {
+                Some(q) => {
+                    for k in 0..3 {
+                        assert!(
+                            (f64::from(q[k]) / 16384.0 - f[k]).abs() < 2e-4,
+                            "code {i}: {q:?} vs {f:?}"
+                        );
+                    }
+                }
+                None => assert!(u32::from(i) < normal::NORMAL_CODES),
+            }
+            // The shading code is the nearest 13-bit code to the same direction.
+            let code = QS_SHADE_CODE[usize::from(i)];
+            assert_eq!(code, crate::normal::encode(f));
+        }
+    }
+
+    #[test]
+    fn modulate_by_white_is_identity_and_by_black_is_black() {
+        for c in [0u16, 0xFFFF, 0xF800, 0x07E0, 0x001F, 0x1234, 0xBEEF] {
+            assert_eq!(modulate(c, 0xFFFF), c);
+            assert_eq!(modulate(0xFFFF, c), c);
+            assert_eq!(modulate(c, 0), 0);
+        }
+    }
+}
+
+#[cfg(all(test, feature = "bake"))]
+mod render_tests {
+    #![allow(clippy::float_arithmetic)]
+    use super::*;
+    use crate::camera::{Camera, Placement, Sphere as BSphere, View, STANDARD_VIEWS};
+    use crate::qs::frame::QsRenderOptions;
+    use crate::qs::table::sphere;
+    use crate::qs::write::{bake_qs, tests::uv_sphere, QsBakeOptions};
+    use std::collections::HashMap;
+    use std::vec::Vec;
+
+    /// f64 decode of every node: file offset → (centre, radius).
+    fn decode_f64(file: &QSplat<'_>) -> HashMap<u32, ([f64; 3], f64)> {
+        let mut out = HashMap::new();
+        for tree in file.trees() {
+            let c = tree.center().map(f64::from);
+            let r = f64::from(tree.radius());
+            let mut stack = std::vec![(tree.root_group(), c, r)];
+            while let Some((g, pc, pr)) = stack.pop() {
+                for (at, n, child) in tree.children(g) {
+                    let e = sphere(n.sphere).unwrap();
+                    let cc = [
+                        pc[0] + pr * f64::from(e.a) / 13.0,
+                        pc[1] + pr * f64::from(e.b) / 13.0,
+                        pc[2] + pr * f64::from(e.c) / 13.0,
+                    ];
+                    let rr = pr * f64::from(e.s) / 13.0;
+                    out.insert(tree.offset() + at, (cc, rr));
+                    if let Some(g) = child {
+                        stack.push((g, cc, rr));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    struct Record(Vec<SampleSplat>);
+    impl SplatSink for Record {
+        fn splat(&mut self, s: &SampleSplat) {
+            self.0.push(*s);
+        }
+    }
+
+    fn render(
+        file: &QSplat<'_>,
+        view: View,
+        cutoff: f32,
+        backface: bool,
+    ) -> (Vec<SampleSplat>, Stats, Camera) {
+        let cam = Camera::orbit(BSphere::from_bounds(file.bounds()), view, 45.0);
+        let opts = QsRenderOptions {
+            cutoff_px: cutoff,
+            backface_culling: backface,
+            ..QsRenderOptions::default()
+        };
+        let frame = QsFrame::new(file, &Placement::IDENTITY, &cam, &opts).unwrap();
+        let mut rec = Record(Vec::new());
+        let stats = render_qs(file, &frame, &mut rec);
+        (rec.0, stats, cam)
+    }
+
+    #[test]
+    fn splats_land_where_the_f64_projection_puts_them() {
+        let q = bake_qs(&uv_sphere(40, 80), &QsBakeOptions::default()).unwrap();
+        let file = QSplat::open(&q.bytes).unwrap();
+        let exact = decode_f64(&file);
+        for (name, view) in STANDARD_VIEWS {
+            for cutoff in [1.0, 4.0] {
+                let (splats, stats, cam) = render(&file, view, cutoff, true);
+                assert!(!splats.is_empty(), "{name}");
+                assert_eq!(stats.splats as usize, splats.len());
+                let mut worst: f64 = 0.0;
+                for s in &splats {
+                    let (c, r) = exact[&s.index];
+                    let p = cam.project(c).expect("drawn in front of the near plane");
+                    let err = (f64::from(s.x_q4) / 16.0 - p[0])
+                        .abs()
+                        .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+                    worst = worst.max(err);
+                    let size = 2.0 * r * cam.focal_px / p[2];
+                    let got = f64::from(s.size_q4) / 16.0;
+                    assert!(
+                        (got - size).abs() <= 0.01 * size + 0.1,
+                        "{name}: size {got} vs {size}"
+                    );
+                    if s.level > 0 && cutoff > 1.0 && splats.len() > 1 {
+                        // Interior samples are drawn only at or below the cutoff.
+                        assert!(got <= f64::from(cutoff) * 1.01 + 0.1 || s.size_q4 > 0);
+                    }
+                }
+                assert!(worst < 0.5, "{name} cutoff {cutoff}: {worst} px");
+            }
+        }
+    }
+
+    #[test]
+    fn culling_and_cutoff_do_what_they_say() {
+        let q = bake_qs(&uv_sphere(40, 80), &QsBakeOptions::default()).unwrap();
+        let file = QSplat::open(&q.bytes).unwrap();
+        let std_view = STANDARD_VIEWS[0].1;
+        let (all, s_all, _) = render(&file, std_view, 1.0, false);
+        let (culled, s_culled, _) = render(&file, std_view, 1.0, true);
+        assert_eq!(s_all.backfacing, 0);
+        assert!(s_culled.backfacing > 0, "{s_culled:?}");
+        // About half a sphere faces away; the cones find most of it.
+        assert!(
+            culled.len() * 10 < all.len() * 7,
+            "{} vs {}",
+            culled.len(),
+            all.len()
+        );
+        // A coarser cutoff draws fewer, larger splats from higher up.
+        let (coarse, s_coarse, _) = render(&file, std_view, 48.0, true);
+        assert!(coarse.len() * 4 < culled.len());
+        assert!(s_coarse.max_level < s_culled.max_level);
+        // Close up, the frustum culls.
+        let (_, s_close, _) = render(&file, STANDARD_VIEWS[2].1, 1.0, true);
+        assert!(s_close.culled > 0, "{s_close:?}");
+        // Behind the model looking away: nothing.
+        let cam = Camera::orbit(
+            BSphere::from_bounds(file.bounds()),
+            View::new(0.0, 0.0, 3.0),
+            45.0,
+        );
+        let away = Camera {
+            forward: crate::camera::scale(cam.forward, -1.0),
+            right: crate::camera::scale(cam.right, -1.0),
+            ..cam
+        };
+        let frame = QsFrame::new(
+            &file,
+            &Placement::IDENTITY,
+            &away,
+            &QsRenderOptions::default(),
+        )
+        .unwrap();
+        let stats = render_qs(&file, &frame, &mut NullSink::default());
+        assert_eq!((stats.splats, stats.nodes_visited), (0, 1));
+    }
+}

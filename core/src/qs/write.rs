@@ -1,0 +1,897 @@
+//! Baking a triangle mesh into a `.qs` file (QSplat §2.2, §3; desktop only, `bake` feature).
+//!
+//! 1. Every referenced vertex becomes a leaf: its radius is the largest minimal bounding sphere of the
+//!    triangles around it (so neighbouring splats touch, no holes), its normal the area-weighted sum
+//!    of theirs. Unreferenced and zero-radius vertices are dropped.
+//! 2. The tree is built top-down, splitting at the bounding-box midpoint of the longest axis two
+//!    levels at a time (2–4 children); parents get the mean centre, an enclosing radius, the
+//!    normalized normal sum, the mean colour, and a cone around their quantized normal.
+//! 3. Spheres are quantized top-down against the *decoded* parent, each to the smallest table entry
+//!    that encloses it; the tree is laid out breadth-first with one pointer per sibling group.
+//!
+//! Everything is deterministic: the same mesh gives the same bytes.
+
+use std::vec::Vec;
+
+use super::normal::{self, cone_code, cone_sin_bound};
+use super::table::{unpack, SPHERES, SPHERE_COUNT};
+use super::{HEADER_BYTES, MAGIC, MAX_DEPTH, OPT_COLOR, OPT_COMMENT, POINTER_BYTES};
+use crate::bake::{MeshError, TriMesh};
+
+/// Build calls below which splits fall back from the midpoint to the median (bounds the depth).
+const MEDIAN_DEPTH: u32 = 32;
+
+/// What to write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct QsBakeOptions {
+    /// Store RGB565 colours when the mesh has vertex colours.
+    pub colors: bool,
+    /// Write pocketsplat's comment fragment with the mesh's bounding box first.
+    pub comment: bool,
+}
+
+impl Default for QsBakeOptions {
+    fn default() -> Self {
+        Self {
+            colors: true,
+            comment: true,
+        }
+    }
+}
+
+/// Why a mesh cannot be baked into a `.qs` file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QsBakeError {
+    /// The mesh is invalid.
+    Mesh(MeshError),
+    /// Fewer than two usable vertices (referenced, with a positive radius): a root needs 2 children.
+    TooFewPoints(usize),
+    /// The fragment would exceed the format's 31-bit pointers.
+    TooLarge(u64),
+    /// The tree came out deeper than readers accept.
+    TooDeep(u32),
+}
+
+impl core::fmt::Display for QsBakeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            QsBakeError::Mesh(e) => write!(f, "{e}"),
+            QsBakeError::TooFewPoints(n) => write!(
+                f,
+                "{n} usable vertices (referenced, positive radius); a .qs tree needs at least 2"
+            ),
+            QsBakeError::TooLarge(n) => {
+                write!(f, "the .qs fragment would be {n} bytes; at most 2^31 - 1")
+            }
+            QsBakeError::TooDeep(d) => {
+                write!(f, "the tree is {d} levels deep; readers accept {MAX_DEPTH}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for QsBakeError {}
+
+impl From<MeshError> for QsBakeError {
+    fn from(e: MeshError) -> Self {
+        QsBakeError::Mesh(e)
+    }
+}
+
+/// One node of the baked tree: exact values, and what was stored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedNode {
+    /// Exact centre, model units.
+    pub center: [f64; 3],
+    /// Exact radius.
+    pub radius: f64,
+    /// The centre a reader decodes.
+    pub decoded_center: [f64; 3],
+    /// The radius a reader decodes.
+    pub decoded_radius: f64,
+    /// Table index (unused for the root, whose sphere is in the header).
+    pub sphere: u16,
+    /// Exact unit normal (zero when undefined).
+    pub normal_exact: [f64; 3],
+    /// 14-bit normal index.
+    pub normal: u16,
+    /// Exact cone half-angle around the decoded normal, radians (π when undefined).
+    pub cone_exact: f64,
+    /// 2-bit cone code.
+    pub cone: u8,
+    /// RGB565 colour (0 without colours).
+    pub color: u16,
+    /// Children (indices into [`BakedQs::nodes`]), 2–4, or none for a leaf.
+    pub children: Vec<u32>,
+    /// Nodes in this subtree, itself included.
+    pub subtree: u32,
+}
+
+/// Counts and quantization errors of a bake.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct QsStats {
+    /// Leaves (the points).
+    pub leaves: u64,
+    /// Interior nodes, the root included.
+    pub interior: u64,
+    /// Group pointers.
+    pub pointers: u64,
+    /// Bytes of node records.
+    pub node_bytes: u64,
+    /// File size.
+    pub file_bytes: u64,
+    /// Deepest level (the root's children are level 1).
+    pub depth: u32,
+    /// Mean absolute error of a child's centre per axis, in decoded parent radii.
+    pub position_error: f64,
+    /// Mean radius increase (decoded − exact), in decoded parent radii.
+    pub radius_error: f64,
+    /// Mean angle between a node's exact and quantized normal, radians.
+    pub normal_error: f64,
+    /// Largest such angle.
+    pub normal_error_max: f64,
+}
+
+impl QsStats {
+    /// Bytes per leaf.
+    pub fn bytes_per_leaf(&self) -> f64 {
+        self.file_bytes as f64 / self.leaves.max(1) as f64
+    }
+    /// Share of the file taken by group pointers.
+    pub fn pointer_share(&self) -> f64 {
+        (self.pointers * u64::from(POINTER_BYTES)) as f64 / self.file_bytes.max(1) as f64
+    }
+}
+
+/// Backface culling of one view with exact cone widths and with the stored 2-bit codes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ConeCulling {
+    /// Nodes discarded (culled subtrees, every node counted) with exact cones.
+    pub exact: u64,
+    /// Nodes discarded with the quantized cones.
+    pub quantized: u64,
+}
+
+/// A baked tree and its file.
+#[derive(Clone, Debug)]
+pub struct BakedQs {
+    /// Every node; the root is [`BakedQs::root`].
+    pub nodes: Vec<BakedNode>,
+    /// Index of the root.
+    pub root: u32,
+    /// The `.qs` bytes.
+    pub bytes: Vec<u8>,
+    /// Counts and errors.
+    pub stats: QsStats,
+    /// Whether colours were written.
+    pub color: bool,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn len(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
+    dot(a, b).clamp(-1.0, 1.0).acos()
+}
+
+/// Radius of the smallest sphere around a triangle: the circumradius when it is acute, half the
+/// longest edge otherwise (and for degenerate triangles).
+pub fn triangle_bounding_radius(p: [[f64; 3]; 3]) -> f64 {
+    let e = [sub(p[1], p[0]), sub(p[2], p[1]), sub(p[0], p[2])];
+    let mut l2 = e.map(|v| dot(v, v));
+    l2.sort_by(f64::total_cmp);
+    let half_longest = 0.5 * l2[2].sqrt();
+    let area2 = len(cross(e[0], e[2]));
+    if l2[2] >= l2[0] + l2[1] || area2 <= 0.0 {
+        return half_longest;
+    }
+    // R = abc / (4·area) = abc / (2·|e₀ × e₂|).
+    let r = (l2[0] * l2[1] * l2[2]).sqrt() / (2.0 * area2);
+    r.max(half_longest)
+}
+
+struct Point {
+    p: [f64; 3],
+    r: f64,
+    n: [f64; 3],
+    rgb: [f64; 3],
+}
+
+struct Builder<'a> {
+    pts: &'a [Point],
+    nodes: Vec<BakedNode>,
+    rgb: Vec<[f64; 3]>,
+    depth: u32,
+}
+
+impl Builder<'_> {
+    /// Splits `ids` in two non-empty parts: at the midpoint of the longest axis of their bounding
+    /// box, or at the median along it when the midpoint leaves a side empty or the tree is deep.
+    fn split(&self, ids: &mut [u32], depth: u32) -> usize {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for &i in ids.iter() {
+            let p = self.pts[i as usize].p;
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+            0
+        } else if ext[1] >= ext[2] {
+            1
+        } else {
+            2
+        };
+        if depth < MEDIAN_DEPTH {
+            let mid = 0.5 * (lo[axis] + hi[axis]);
+            // Two-pointer partition: `< mid` first (deterministic).
+            let (mut i, mut j) = (0usize, ids.len());
+            while i < j {
+                if self.pts[ids[i] as usize].p[axis] < mid {
+                    i += 1;
+                } else {
+                    j -= 1;
+                    ids.swap(i, j);
+                }
+            }
+            if i > 0 && i < ids.len() {
+                return i;
+            }
+        }
+        let m = ids.len() / 2;
+        let pts = self.pts;
+        ids.select_nth_unstable_by(m, |&a, &b| {
+            pts[a as usize].p[axis]
+                .total_cmp(&pts[b as usize].p[axis])
+                .then(a.cmp(&b))
+        });
+        m
+    }
+
+    fn leaf(&mut self, id: u32, depth: u32) -> u32 {
+        let pt = &self.pts[id as usize];
+        let l = len(pt.n);
+        let (n, idx, theta) = if l > 0.0 {
+            let n = pt.n.map(|c| c / l);
+            let idx = normal::encode(n);
+            (n, idx, angle(n, normal::decode(idx)))
+        } else {
+            (
+                [0.0; 3],
+                normal::encode([0.0, 0.0, 1.0]),
+                core::f64::consts::PI,
+            )
+        };
+        self.depth = self.depth.max(depth);
+        self.push(
+            BakedNode {
+                center: pt.p,
+                radius: pt.r,
+                decoded_center: pt.p,
+                decoded_radius: pt.r,
+                sphere: 0,
+                normal_exact: n,
+                normal: idx,
+                cone_exact: theta,
+                cone: cone_code(theta),
+                color: 0,
+                children: Vec::new(),
+                subtree: 1,
+            },
+            pt.rgb,
+        )
+    }
+
+    fn push(&mut self, node: BakedNode, rgb: [f64; 3]) -> u32 {
+        self.nodes.push(node);
+        self.rgb.push(rgb);
+        (self.nodes.len() - 1) as u32
+    }
+
+    /// Builds the subtree over `ids` (at least 2 points) at tree depth `depth`; returns its node.
+    fn build(&mut self, ids: &mut [u32], depth: u32) -> u32 {
+        // Two binary levels at a time: 2, 3 or 4 parts.
+        let m = self.split(ids, depth);
+        let (a, b) = ids.split_at_mut(m);
+        let mut parts: Vec<&mut [u32]> = Vec::with_capacity(4);
+        for half in [a, b] {
+            if half.len() >= 2 {
+                let k = self.split(half, depth);
+                let (x, y) = half.split_at_mut(k);
+                parts.push(x);
+                parts.push(y);
+            } else {
+                parts.push(half);
+            }
+        }
+        let mut children = Vec::with_capacity(parts.len());
+        for part in parts {
+            children.push(if part.len() == 1 {
+                self.leaf(part[0], depth + 1)
+            } else {
+                self.build(part, depth + 1)
+            });
+        }
+        self.interior(children)
+    }
+
+    fn interior(&mut self, children: Vec<u32>) -> u32 {
+        let k = children.len() as f64;
+        let mut c = [0.0; 3];
+        let mut nsum = [0.0; 3];
+        let mut rgb = [0.0; 3];
+        let mut subtree = 1;
+        for &i in &children {
+            let n = &self.nodes[i as usize];
+            for a in 0..3 {
+                c[a] += n.center[a] / k;
+                nsum[a] += n.normal_exact[a];
+                rgb[a] += self.rgb[i as usize][a] / k;
+            }
+            subtree += n.subtree;
+        }
+        let mut radius: f64 = 0.0;
+        for &i in &children {
+            let n = &self.nodes[i as usize];
+            radius = radius.max(len(sub(n.center, c)) + n.radius);
+        }
+        // Enclose the children despite rounding.
+        let radius = radius * (1.0 + 1e-12);
+        let l = len(nsum);
+        let (n, idx) = if l > 1e-9 {
+            let n = nsum.map(|v| v / l);
+            (n, normal::encode(n))
+        } else {
+            ([0.0; 3], normal::encode([0.0, 0.0, 1.0]))
+        };
+        let q = normal::decode(idx);
+        let theta = if l > 1e-9 {
+            children
+                .iter()
+                .map(|&i| {
+                    let ch = &self.nodes[i as usize];
+                    angle(q, normal::decode(ch.normal)) + ch.cone_exact
+                })
+                .fold(0.0, f64::max)
+                .min(core::f64::consts::PI)
+        } else {
+            core::f64::consts::PI
+        };
+        self.push(
+            BakedNode {
+                center: c,
+                radius,
+                decoded_center: c,
+                decoded_radius: radius,
+                sphere: 0,
+                normal_exact: n,
+                normal: idx,
+                cone_exact: theta,
+                cone: cone_code(theta),
+                color: 0,
+                children,
+                subtree,
+            },
+            rgb,
+        )
+    }
+}
+
+/// The `(s, x, y, z)` → table index map.
+fn table_index() -> Vec<u16> {
+    let mut map = std::vec![u16::MAX; 14 * 14 * 14 * 14];
+    for (i, &p) in SPHERES.iter().enumerate() {
+        let (s, x, y, z) = unpack(p).cell();
+        map[((usize::from(s) * 14 + usize::from(x)) * 14 + usize::from(y)) * 14 + usize::from(z)] =
+            i as u16;
+    }
+    map
+}
+
+/// The smallest table entry whose sphere encloses a child at `rel` (parent radii, relative to the
+/// parent's centre) with radius `rr`, nearest first among equals: `(index, offset, radius)`.
+fn quantize_sphere(map: &[u16], rel: [f64; 3], rr: f64) -> (u16, [f64; 3], f64) {
+    for s in 1..=13u32 {
+        let big_r = f64::from(s) / 13.0;
+        if rr > big_r {
+            continue;
+        }
+        let cell = rel.map(|v| {
+            let x = (((v + 1.0) * 13.0 - f64::from(s)) * 0.5).round();
+            x.clamp(0.0, f64::from(13 - s)) as u32
+        });
+        let q = cell.map(|x| f64::from(s + 2 * x) / 13.0 - 1.0);
+        if len(sub(rel, q)) + rr <= big_r {
+            let i = map[((s as usize * 14 + cell[0] as usize) * 14 + cell[1] as usize) * 14
+                + cell[2] as usize];
+            if i != u16::MAX {
+                return (i, q, big_r);
+            }
+        }
+    }
+    // Only rounding can get here (a child always fits its parent): the parent itself.
+    ((SPHERE_COUNT - 1) as u16, [0.0; 3], 1.0)
+}
+
+fn rgb565(c: [f64; 3]) -> u16 {
+    let q = |v: f64, max: f64| (v / 255.0 * max).round().clamp(0.0, max) as u16;
+    q(c[0], 31.0) << 11 | q(c[1], 63.0) << 5 | q(c[2], 31.0)
+}
+
+/// Rounds `x` to an `f32` no smaller than it.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// Bakes `mesh` into a `.qs` file.
+///
+/// # Errors
+/// [`QsBakeError`] for an invalid mesh, fewer than 2 usable vertices, or a file too large.
+pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeError> {
+    mesh.validate()?;
+    let nv = mesh.positions.len();
+    let mut radius = std::vec![0.0f64; nv];
+    let mut nsum = std::vec![[0.0f64; 3]; nv];
+    let mut used = std::vec![false; nv];
+    for t in &mesh.triangles {
+        let p = t.map(|i| mesh.positions[i as usize]);
+        let r = triangle_bounding_radius(p);
+        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        for &i in t {
+            let i = i as usize;
+            used[i] = true;
+            radius[i] = radius[i].max(r);
+            for k in 0..3 {
+                nsum[i][k] += n[k];
+            }
+        }
+    }
+    let color = opts.colors && mesh.colors.is_some();
+    let pts: Vec<Point> = (0..nv)
+        .filter(|&i| used[i] && radius[i] > 0.0)
+        .map(|i| Point {
+            p: mesh.positions[i],
+            r: radius[i],
+            n: nsum[i],
+            rgb: mesh
+                .colors
+                .as_ref()
+                .map_or([0.0; 3], |c| c[i].map(f64::from)),
+        })
+        .collect();
+    if pts.len() < 2 {
+        return Err(QsBakeError::TooFewPoints(pts.len()));
+    }
+    let mut b = Builder {
+        pts: &pts,
+        nodes: Vec::with_capacity(pts.len() * 3 / 2),
+        rgb: Vec::with_capacity(pts.len() * 3 / 2),
+        depth: 0,
+    };
+    let mut ids: Vec<u32> = (0..pts.len() as u32).collect();
+    let root = b.build(&mut ids, 0);
+    if b.depth as usize > MAX_DEPTH {
+        return Err(QsBakeError::TooDeep(b.depth));
+    }
+    let depth = b.depth;
+    let mut nodes = b.nodes;
+    for (n, rgb) in nodes.iter_mut().zip(&b.rgb) {
+        n.color = if color { rgb565(*rgb) } else { 0 };
+    }
+
+    // Quantize top-down against the decoded parents.
+    let map = table_index();
+    {
+        let r = &mut nodes[root as usize];
+        let cf = r.center.map(|v| v as f32);
+        let shift = len(sub(r.center, cf.map(f64::from)));
+        r.decoded_center = cf.map(f64::from);
+        r.decoded_radius = f64::from(f32_up(r.radius + shift));
+    }
+    let (mut pos_err, mut rad_err, mut quantized) = (0.0f64, 0.0f64, 0u64);
+    let mut stack = std::vec![root];
+    while let Some(p) = stack.pop() {
+        let (pc, pr) = (
+            nodes[p as usize].decoded_center,
+            nodes[p as usize].decoded_radius,
+        );
+        for ci in nodes[p as usize].children.clone() {
+            let ch = &mut nodes[ci as usize];
+            let rel = sub(ch.center, pc).map(|v| v / pr);
+            let rr = ch.radius / pr;
+            let (index, q, big_r) = quantize_sphere(&map, rel, rr);
+            ch.sphere = index;
+            ch.decoded_center = [0, 1, 2].map(|k| pc[k] + pr * q[k]);
+            ch.decoded_radius = pr * big_r;
+            pos_err += (0..3).map(|k| (q[k] - rel[k]).abs()).sum::<f64>() / 3.0;
+            rad_err += big_r - rr;
+            quantized += 1;
+            stack.push(ci);
+        }
+    }
+    let (mut nerr, mut nerr_max, mut nn) = (0.0f64, 0.0f64, 0u64);
+    for (i, n) in nodes.iter().enumerate() {
+        if i as u32 != root && len(n.normal_exact) > 0.0 {
+            let e = angle(n.normal_exact, normal::decode(n.normal));
+            nerr += e;
+            nerr_max = nerr_max.max(e);
+            nn += 1;
+        }
+    }
+
+    let (bytes, pointers) = layout(mesh, opts, &nodes, root, color, pts.len() as u32)?;
+    let leaves = pts.len() as u64;
+    let interior = nodes.len() as u64 - leaves;
+    let node_bytes = (nodes.len() as u64 - 1) * if color { 6 } else { 4 };
+    Ok(BakedQs {
+        stats: QsStats {
+            leaves,
+            interior,
+            pointers,
+            node_bytes,
+            file_bytes: bytes.len() as u64,
+            depth,
+            position_error: pos_err / quantized.max(1) as f64,
+            radius_error: rad_err / quantized.max(1) as f64,
+            normal_error: nerr / nn.max(1) as f64,
+            normal_error_max: nerr_max,
+        },
+        nodes,
+        root,
+        bytes,
+        color,
+    })
+}
+
+fn put_u32(out: &mut Vec<u8>, v: u32) {
+    out.extend_from_slice(&v.to_be_bytes());
+}
+
+fn pad4(out: &mut Vec<u8>, start: usize) {
+    while !(out.len() - start).is_multiple_of(4) {
+        out.push(0);
+    }
+}
+
+/// Lays the tree out breadth-first and writes the file; returns it and its pointer count.
+fn layout(
+    mesh: &TriMesh,
+    opts: &QsBakeOptions,
+    nodes: &[BakedNode],
+    root: u32,
+    color: bool,
+    leaves: u32,
+) -> Result<(Vec<u8>, u64), QsBakeError> {
+    let ns: u64 = if color { 6 } else { 4 };
+    let is_interior = |i: u32| !nodes[i as usize].children.is_empty();
+    // Groups in breadth-first order of their parents.
+    let mut parents = std::vec![root];
+    let mut k = 0;
+    while k < parents.len() {
+        let p = parents[k];
+        parents.extend(
+            nodes[p as usize]
+                .children
+                .iter()
+                .copied()
+                .filter(|&c| is_interior(c)),
+        );
+        k += 1;
+    }
+    let has_pointer = |p: u32| {
+        let kids = &nodes[p as usize].children;
+        // QSplat 1.0's quirk: the root group has a pointer unless the model has exactly 4 leaves.
+        kids.iter().any(|&c| is_interior(c)) || (p == root && leaves != 4)
+    };
+    // Offsets within the fragment of each group (of its pointer, when it has one).
+    let mut group_at = std::vec![0u64; nodes.len()];
+    let mut at = HEADER_BYTES as u64;
+    for &p in &parents {
+        group_at[p as usize] = at;
+        at += if has_pointer(p) { 4 } else { 0 } + ns * nodes[p as usize].children.len() as u64;
+    }
+    let tree_len = at.div_ceil(4) * 4;
+    if tree_len > i32::MAX as u64 {
+        return Err(QsBakeError::TooLarge(tree_len));
+    }
+
+    let mut out = Vec::with_capacity(tree_len as usize + 64);
+    if opts.comment {
+        let [lo, hi] = mesh.bounds_f32();
+        let text = std::format!(
+            "{} bounds={},{},{},{},{},{}",
+            super::BOUNDS_COMMENT_PREFIX,
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
+        );
+        let length = (20 + text.len()).div_ceil(4) * 4;
+        out.extend_from_slice(&MAGIC);
+        put_u32(&mut out, length as u32);
+        put_u32(&mut out, 0);
+        put_u32(&mut out, OPT_COMMENT);
+        out.extend_from_slice(text.as_bytes());
+        pad4(&mut out, 0);
+    }
+    let start = out.len();
+    let r = &nodes[root as usize];
+    out.extend_from_slice(&MAGIC);
+    put_u32(&mut out, tree_len as u32);
+    put_u32(&mut out, leaves);
+    put_u32(&mut out, if color { OPT_COLOR } else { 0 });
+    for v in r.decoded_center {
+        out.extend_from_slice(&(v as f32).to_be_bytes());
+    }
+    out.extend_from_slice(&(r.decoded_radius as f32).to_be_bytes());
+    put_u32(&mut out, r.children.len() as u32);
+    let mut pointers = 0u64;
+    for &p in &parents {
+        let kids = &nodes[p as usize].children;
+        debug_assert_eq!((out.len() - start) as u64, group_at[p as usize]);
+        if has_pointer(p) {
+            pointers += 1;
+            let here = group_at[p as usize];
+            let target = kids
+                .iter()
+                .find(|&&c| is_interior(c))
+                .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at[c as usize]);
+            out.extend_from_slice(&((target - here) as i32).to_be_bytes());
+        }
+        for &c in kids {
+            let n = &nodes[c as usize];
+            let grand = n.children.iter().any(|&g| is_interior(g));
+            let rec = super::read::Node {
+                sphere: n.sphere,
+                children: n.children.len() as u8,
+                grandchildren: grand,
+                normal: n.normal,
+                cone: n.cone,
+                color: color.then_some(n.color),
+            }
+            .to_bytes();
+            out.extend_from_slice(&rec[..ns as usize]);
+        }
+    }
+    pad4(&mut out, start);
+    debug_assert_eq!((out.len() - start) as u64, tree_len);
+    Ok((out, pointers))
+}
+
+impl BakedQs {
+    /// Backface culling seen from `eye` (model coordinates) over the whole tree (no frustum, no
+    /// level of detail), with the exact cone widths and with the stored codes, using the decoded
+    /// spheres and normals for both: QSplat §3.1's "over 90 percent of nodes that would be culled
+    /// using exact normal cone widths".
+    pub fn cone_culling(&self, eye: [f64; 3]) -> ConeCulling {
+        ConeCulling {
+            exact: self.culled(self.root, eye, false, true),
+            quantized: self.culled(self.root, eye, false, false),
+        }
+    }
+
+    fn culled(&self, i: u32, eye: [f64; 3], facing: bool, exact: bool) -> u64 {
+        let n = &self.nodes[i as usize];
+        let mut facing = facing;
+        if i != self.root && !facing {
+            let sin = if exact {
+                (n.cone_exact < core::f64::consts::FRAC_PI_2).then(|| n.cone_exact.sin())
+            } else {
+                (n.cone < normal::CONE_NEVER).then(|| cone_sin_bound(n.cone))
+            };
+            if let Some(sin) = sin {
+                let v = sub(eye, n.decoded_center);
+                let d = dot(v, normal::decode(n.normal));
+                let (r, dd) = (n.decoded_radius, dot(v, v));
+                if d < -r && (d + r) * (d + r) > dd * sin * sin {
+                    return u64::from(n.subtree);
+                }
+                if d > r && (d - r) * (d - r) > dd * sin * sin {
+                    facing = true;
+                }
+            }
+        }
+        n.children
+            .iter()
+            .map(|&c| self.culled(c, eye, facing, exact))
+            .sum()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::qs::read::{Group, QSplat, Tree};
+
+    /// A UV sphere of radius 1 with `rings × segments` quads, coloured by position.
+    pub(crate) fn uv_sphere(rings: u32, segments: u32) -> TriMesh {
+        let mut m = TriMesh::default();
+        let mut colors = Vec::new();
+        for i in 0..=rings {
+            let th = core::f64::consts::PI * f64::from(i) / f64::from(rings);
+            for j in 0..segments {
+                let ph = 2.0 * core::f64::consts::PI * f64::from(j) / f64::from(segments);
+                let p = [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()];
+                m.positions.push(p);
+                colors.push(p.map(|c| ((c + 1.0) * 127.0) as u8));
+            }
+        }
+        let at = |i: u32, j: u32| i * segments + j % segments;
+        for i in 0..rings {
+            for j in 0..segments {
+                m.triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                m.triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        m.colors = Some(colors);
+        m
+    }
+
+    #[test]
+    fn triangle_radius_is_the_smallest_enclosing_sphere() {
+        // Equilateral, side 1: circumradius 1/√3.
+        let eq = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 3f64.sqrt() / 2.0, 0.0],
+        ];
+        assert!((triangle_bounding_radius(eq) - 1.0 / 3f64.sqrt()).abs() < 1e-12);
+        // Obtuse: half the longest edge.
+        let ob = [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [2.0, 0.5, 0.0]];
+        assert!((triangle_bounding_radius(ob) - 2.0).abs() < 1e-12);
+        // Degenerate.
+        let dg = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        assert!((triangle_bounding_radius(dg) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn quantized_spheres_enclose_the_exact_ones_and_errors_are_small() {
+        let q = bake_qs(&uv_sphere(40, 80), &QsBakeOptions::default()).unwrap();
+        for n in &q.nodes {
+            let d = len(sub(n.center, n.decoded_center)) + n.radius;
+            assert!(d <= n.decoded_radius * (1.0 + 1e-9), "{n:?}");
+        }
+        let s = q.stats;
+        assert!(s.position_error < 0.08 && s.radius_error < 0.3, "{s:?}");
+        assert!(s.normal_error < 0.02, "{s:?}");
+        // Children of every interior node: 2–4.
+        assert!(q
+            .nodes
+            .iter()
+            .all(|n| n.children.is_empty() || (2..=4).contains(&n.children.len())));
+    }
+
+    /// The reader's tree, breadth-first: (sphere, children, normal, cone, colour) per node.
+    fn read_back(tree: &Tree<'_>) -> Vec<(u16, u8, u16, u8, Option<u16>)> {
+        let mut out = Vec::new();
+        let mut queue: Vec<Group> = std::vec![tree.root_group()];
+        let mut k = 0;
+        while k < queue.len() {
+            for (_, n, g) in tree.children(queue[k]) {
+                out.push((n.sphere, n.children, n.normal, n.cone, n.color));
+                queue.extend(g);
+            }
+            k += 1;
+        }
+        out
+    }
+
+    #[test]
+    fn the_file_reads_back_to_the_same_tree_and_is_deterministic() {
+        let mesh = uv_sphere(24, 48);
+        for colors in [false, true] {
+            let opts = QsBakeOptions {
+                colors,
+                comment: true,
+            };
+            let q = bake_qs(&mesh, &opts).unwrap();
+            assert_eq!(
+                q.bytes,
+                bake_qs(&mesh, &opts).unwrap().bytes,
+                "deterministic"
+            );
+            let file = QSplat::open(&q.bytes).unwrap();
+            assert_eq!(file.counts().leaves, q.stats.leaves);
+            assert_eq!(file.counts().interior + 1, q.stats.interior);
+            assert_eq!(file.counts().pointers, q.stats.pointers);
+            assert_eq!(file.bounds(), mesh.bounds_f32());
+            let tree = file.trees().next().unwrap();
+            assert_eq!(tree.has_color(), colors);
+            let root = &q.nodes[q.root as usize];
+            assert_eq!(tree.center(), root.decoded_center.map(|v| v as f32));
+            // The writer's tree in the same breadth-first order.
+            let mut want = Vec::new();
+            let mut queue = std::vec![q.root];
+            let mut k = 0;
+            while k < queue.len() {
+                for &c in &q.nodes[queue[k] as usize].children {
+                    let n = &q.nodes[c as usize];
+                    want.push((
+                        n.sphere,
+                        n.children.len() as u8,
+                        n.normal,
+                        n.cone,
+                        colors.then_some(n.color),
+                    ));
+                    if !n.children.is_empty() {
+                        queue.push(c);
+                    }
+                }
+                k += 1;
+            }
+            assert_eq!(read_back(&tree), want);
+        }
+    }
+
+    #[test]
+    fn tiny_models_copy_the_root_pointer_quirk() {
+        // 2, 3, 4, 5 usable vertices: a fan of triangles.
+        for n in 2..=5u32 {
+            let mut m = TriMesh::default();
+            m.positions.push([0.0, 0.0, 0.0]);
+            for i in 0..n.max(3) - 1 {
+                let a = f64::from(i);
+                m.positions.push([a.cos(), a.sin(), 0.1 * a]);
+            }
+            for i in 1..m.positions.len() as u32 - 1 {
+                m.triangles.push([0, i, i + 1]);
+            }
+            let q = bake_qs(&m, &QsBakeOptions::default()).unwrap();
+            let file = QSplat::open(&q.bytes).unwrap();
+            let leaves = file.counts().leaves;
+            let tree = file.trees().next().unwrap();
+            assert_eq!(leaves, q.stats.leaves);
+            assert_eq!(
+                tree.root_group().pointer.is_some(),
+                leaves != 4,
+                "{leaves} leaves"
+            );
+        }
+    }
+
+    #[test]
+    fn exact_cones_cull_at_least_what_codes_do() {
+        let q = bake_qs(&uv_sphere(30, 60), &QsBakeOptions::default()).unwrap();
+        let c = q.cone_culling([0.0, 0.0, 5.0]);
+        assert!(c.quantized <= c.exact && c.exact > 0, "{c:?}");
+        assert!(c.quantized as f64 >= 0.5 * c.exact as f64, "{c:?}");
+    }
+
+    #[test]
+    fn bad_meshes_are_specific_errors() {
+        let mut m = TriMesh::default();
+        assert!(matches!(
+            bake_qs(&m, &QsBakeOptions::default()),
+            Err(QsBakeError::Mesh(MeshError::Empty { .. }))
+        ));
+        m.positions = std::vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
+        m.triangles = std::vec![[0, 1, 2]];
+        assert!(matches!(
+            bake_qs(&m, &QsBakeOptions::default()),
+            Err(QsBakeError::Mesh(MeshError::NoArea))
+        ));
+    }
+}
