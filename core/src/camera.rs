@@ -116,13 +116,15 @@ impl Camera {
         let dir = direction(view.az_deg, view.el_deg);
         let eye = add(sphere.center, scale(dir, view.dist * sphere.radius));
         let forward = scale(dir, -1.0);
-        // Straight up or down: +Y is no use as a reference; take the side away from the default view.
-        let reference = if libm::fabs(dir[1]) > 1.0 - 1e-12 {
-            scale([0.0, 0.0, -1.0], dir[1])
+        // Off the poles, right = forward × Y normalised = (cos az, 0, −sin az). Straight up or down
+        // (+Y useless as a reference) take that same vector, its limit at the pole, so that the image
+        // turns continuously as the view orbits onto the pole at any azimuth.
+        let right = if libm::fabs(dir[1]) > 1.0 - 1e-12 {
+            let az = view.az_deg.to_radians();
+            [libm::cos(az), 0.0, -libm::sin(az)]
         } else {
-            [0.0, 1.0, 0.0]
+            normalize(cross(forward, [0.0, 1.0, 0.0]))
         };
-        let right = normalize(cross(forward, reference));
         let up = cross(right, forward);
         let focal_px = (HEIGHT as f64 / 2.0) / libm::tan(0.5 * fov_deg.to_radians());
         Self {
@@ -275,6 +277,28 @@ mod tests {
                 c.right.iter().all(|v| v.is_finite())
                     && (dot(c.right, c.right) - 1.0).abs() < 1e-12
             );
+        }
+    }
+
+    #[test]
+    fn orbiting_onto_a_pole_turns_the_camera_continuously() {
+        // Found by the stability suite (`pocketsplat report stability`, axes group): at EL ±90 the
+        // camera used a fixed reference whatever the azimuth, so at AZ 180 the image flipped.
+        let s = Sphere {
+            center: [0.0; 3],
+            radius: 1.0,
+        };
+        for el in [90.0, -90.0] {
+            for az in [0.0, 30.0, 90.0, 180.0, 270.0, -135.0] {
+                let at = Camera::orbit(s, View::new(az, el, 2.0), 45.0);
+                let off = Camera::orbit(s, View::new(az, el - 1e-3 * el / 90.0, 2.0), 45.0);
+                for (a, b) in [(at.right, off.right), (at.up, off.up)] {
+                    let d = sub(a, b);
+                    assert!(dot(d, d).sqrt() < 1e-4, "EL {el} AZ {az}: {a:?} vs {b:?}");
+                }
+                assert!(dot(at.right, at.forward).abs() < 1e-12);
+                assert!((dot(at.up, at.up) - 1.0).abs() < 1e-12);
+            }
         }
     }
 }
