@@ -141,6 +141,18 @@ enum KernelArg {
 
 #[derive(Subcommand)]
 enum ReportKind {
+    /// Extreme and stiff cases (cameras, scales, depths, shapes, lights, frame-rate control) against
+    /// f64, each with pass/fail and its worst error; exits non-zero when a case fails. Run it in the
+    /// dev profile (overflow checks on).
+    Stability {
+        /// Also write the page (e.g. docs/stability.md).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+        /// Only these groups (repeatable): distance, inside, fov, axes, scale, depth, shapes, lights,
+        /// lod.
+        #[arg(long)]
+        group: Vec<String>,
+    },
     /// PSNR and coverage against the f64 reference, time and nodes per frame: standard views ×
     /// cutoffs 1, 2, 4, 8 px, tri-grid (depth 6) and octree (depth 9).
     Views {
@@ -264,6 +276,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             cmd::view::run(&input, &opts)
         }
+        Some(Command::Report {
+            which: ReportKind::Stability { out, group },
+        }) => report::stability::command(out.as_deref(), &group),
         Some(Command::Report {
             which: ReportKind::Paper { models, quick },
         }) => {

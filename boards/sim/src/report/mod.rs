@@ -1,4 +1,5 @@
 //! `pocketsplat report …`: the paper's tables reproduced live, and (later) error against run time.
 
 pub mod paper;
+pub mod stability;
 pub mod views;
