@@ -8,6 +8,7 @@ pub mod fsutil;
 pub mod image;
 pub mod metrics;
 pub mod ply;
+pub mod qsplat;
 pub mod reference;
 pub mod render;
 pub mod report;

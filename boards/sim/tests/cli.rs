@@ -185,3 +185,87 @@ fn no_arguments_without_a_display_writes_the_demo_png() {
     );
     assert!(String::from_utf8_lossy(&out.stderr).contains("pocketsplat-demo.png"));
 }
+
+#[test]
+fn qsplat_bake_info_render_and_bad_qs_files() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oct.ply"), octahedron_ply(None)).unwrap();
+    let out = pocketsplat(
+        &["bake", "oct.ply", "--format", "qsplat", "-o", "oct.qs"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(dir.path().join("oct.qs")).unwrap();
+
+    let out = pocketsplat(&["info", "oct.qs", "--json"], dir.path());
+    assert!(out.status.success());
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(info["format"], "qsplat");
+    assert_eq!(info["file_bytes"].as_u64().unwrap(), bytes.len() as u64);
+    assert_eq!(info["leaves"], 6);
+    assert_eq!(info["tree_fragments"], 1);
+    assert_eq!(info["comment_fragments"], 1);
+    assert_eq!(info["byte_order"], "big");
+    assert_eq!(info["color"], false);
+    assert!(info["interior_nodes"].as_u64().unwrap() >= 2);
+    assert!(info["pointer_share"].as_f64().unwrap() > 0.0);
+    let text = pocketsplat(&["info", "oct.qs"], dir.path());
+    assert!(String::from_utf8_lossy(&text.stdout).contains("6 leaves"));
+
+    let out = pocketsplat(
+        &["render", "oct.qs", "-o", "oct.png", "--stats-json"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["renderer"], "qsplat");
+    assert!(stats["splats"].as_u64().unwrap() > 0);
+    let img = pocketsplat_sim::image::read_rgb8_frame(&dir.path().join("oct.png")).unwrap();
+    assert!(img.iter().filter(|p| **p != [0, 0, 0]).count() > 1000);
+
+    // A cut file, a wrong leaf count, garbage named .qs, and shadows: clear errors, no output.
+    std::fs::write(dir.path().join("cut.qs"), &bytes[..bytes.len() - 4]).unwrap();
+    let mut wrong = bytes.clone();
+    // The comment fragment comes first; its length says where the tree's header starts.
+    let tree = u32::from_be_bytes(bytes[8..12].try_into().unwrap()) as usize;
+    wrong[tree + 15] ^= 1; // the tree's leaf count
+    std::fs::write(dir.path().join("wrong.qs"), &wrong).unwrap();
+    std::fs::write(dir.path().join("junk.qs"), b"not a qsplat file at all").unwrap();
+    let before = files_in(dir.path());
+    for (args, needles) in [
+        (
+            &["render", "cut.qs", "-o", "x.png"][..],
+            &["cut.qs", "fragment"][..],
+        ),
+        (&["info", "wrong.qs"][..], &["wrong.qs", "leaves"][..]),
+        (
+            &["render", "junk.qs", "-o", "x.png"][..],
+            &["junk.qs", "QSplat11"][..],
+        ),
+        (
+            &["render", "oct.qs", "-o", "x.png", "--shadows", "one-pass"][..],
+            &["shadows"][..],
+        ),
+        (
+            &["bake", "oct.ply", "--format", "qsplat9", "-o", "x.qs"][..],
+            &["qsplat9"][..],
+        ),
+    ] {
+        let out = pocketsplat(args, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {err}");
+        }
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert_eq!(files_in(dir.path()), before, "no output is left");
+}

@@ -1,8 +1,9 @@
-//! `pocketsplat info FILE [--json]`: what a point file holds and what it costs.
+//! `pocketsplat info FILE [--json]`: what a point file (`.tg` or `.qs`) holds and what it costs.
 
 use std::path::Path;
 
 use anyhow::{Context, Result};
+use pocketsplat_core::qs::{ByteOrder, QSplat};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
@@ -112,6 +113,117 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
     }
 }
 
+/// Statistics of a `.qs` file.
+#[derive(Clone, Debug, Serialize)]
+pub struct QsInfo {
+    /// Always "qsplat".
+    pub format: &'static str,
+    /// File size.
+    pub file_bytes: u64,
+    /// "big" or "little" endian.
+    pub byte_order: &'static str,
+    /// Fragments, comments included.
+    pub fragments: u32,
+    /// Comment fragments.
+    pub comment_fragments: u32,
+    /// Tree fragments.
+    pub tree_fragments: u32,
+    /// The comments' texts.
+    pub comments: Vec<String>,
+    /// Whether any tree carries RGB565 colours.
+    pub color: bool,
+    /// Leaf nodes (points).
+    pub leaves: u64,
+    /// Interior nodes, one root per tree included (roots live in fragment headers).
+    pub interior_nodes: u64,
+    /// Deepest level below a root.
+    pub depth: u8,
+    /// Bytes per node record (4, or 6 with colour; the mean over trees).
+    pub bytes_per_node: f64,
+    /// File bytes per leaf.
+    pub bytes_per_leaf: f64,
+    /// Group pointers.
+    pub pointers: u64,
+    /// Bytes of pointers.
+    pub pointer_bytes: u64,
+    /// Share of the file taken by pointers.
+    pub pointer_share: f64,
+    /// Bytes of fragment headers, comments and padding.
+    pub header_bytes: u64,
+}
+
+/// Statistics of an opened `.qs` file.
+pub fn qs_info(q: &QSplat<'_>) -> QsInfo {
+    let c = *q.counts();
+    let file_bytes = q.bytes().len() as u64;
+    let records = c.leaves + c.interior;
+    let pointer_bytes = 4 * c.pointers;
+    QsInfo {
+        format: "qsplat",
+        file_bytes,
+        byte_order: match q.byte_order() {
+            ByteOrder::Big => "big",
+            ByteOrder::Little => "little",
+        },
+        fragments: c.fragments,
+        comment_fragments: c.comments,
+        tree_fragments: c.trees,
+        comments: q
+            .comments()
+            .map(|t| String::from_utf8_lossy(t).into_owned())
+            .collect(),
+        color: c.color_trees > 0,
+        leaves: c.leaves,
+        interior_nodes: c.interior + u64::from(c.trees),
+        depth: c.max_depth,
+        bytes_per_node: c.node_bytes as f64 / records.max(1) as f64,
+        bytes_per_leaf: file_bytes as f64 / c.leaves.max(1) as f64,
+        pointers: c.pointers,
+        pointer_bytes,
+        pointer_share: pointer_bytes as f64 / file_bytes.max(1) as f64,
+        header_bytes: c.header_bytes,
+    }
+}
+
+fn run_qs(path: &Path, json: bool) -> Result<()> {
+    let bytes = crate::qsplat::read_qs(path)?;
+    let q = QSplat::open(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let info = qs_info(&q);
+    if json {
+        println!("{}", serde_json::to_string(&info)?);
+        return Ok(());
+    }
+    println!(
+        "{}: QSplat version 11, {}-endian, {} fragments ({} tree, {} comment)",
+        path.display(),
+        info.byte_order,
+        info.fragments,
+        info.tree_fragments,
+        info.comment_fragments
+    );
+    for c in &info.comments {
+        println!("  comment: {c}");
+    }
+    println!(
+        "  nodes: {} leaves, {} interior (roots included), depth {}; colour {}",
+        info.leaves,
+        info.interior_nodes,
+        info.depth,
+        if info.color { "RGB565" } else { "none" }
+    );
+    println!(
+        "  file: {} bytes, {:.2} bytes per node, {:.3} bytes per leaf; pointers {} ({} bytes, {:.1} % of the file); headers {} bytes",
+        info.file_bytes,
+        info.bytes_per_node,
+        info.bytes_per_leaf,
+        info.pointers,
+        info.pointer_bytes,
+        100.0 * info.pointer_share,
+        info.header_bytes
+    );
+    Ok(())
+}
+
 /// Reads and opens a `.tg` file, naming it in any error.
 ///
 /// # Errors
@@ -127,6 +239,9 @@ pub fn read_tg(path: &Path) -> Result<Vec<u8>> {
 /// # Errors
 /// When the file cannot be read or is invalid.
 pub fn run(path: &Path, json: bool) -> Result<()> {
+    if crate::qsplat::is_qs(path)? {
+        return run_qs(path, json);
+    }
     let bytes = read_tg(path)?;
     let tg = TriGrid::open(&bytes, Verify::Structure)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;

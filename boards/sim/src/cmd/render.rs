@@ -65,6 +65,35 @@ fn is_tg(path: &Path) -> Result<bool> {
 /// Bad arguments or input, naming the file; no output is written then.
 pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> Result<()> {
     let t = Instant::now();
+    if crate::qsplat::is_qs(input)? {
+        let bytes = crate::qsplat::read_qs(input)?;
+        let file = pocketsplat_core::qs::QSplat::open(&bytes)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
+        let mut fb = FrameBuffers::new();
+        let r = crate::qsplat::render_qs_frame(&file, settings, &mut fb)
+            .map_err(|e| anyhow::anyhow!("{}: {e:#}", input.display()))?;
+        image::write_rgb565_png(out, fb.pixels())?;
+        if stats_json {
+            let s = r.stats;
+            println!(
+                "{}",
+                json!({
+                    "input": input.display().to_string(), "renderer": "qsplat",
+                    "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
+                    "culled": s.culled, "backfacing": s.backfacing,
+                    "ms": r.time.as_secs_f64() * 1e3, "cutoff_px": settings.cutoff_px,
+                    "kernel": match settings.kernel { Kernel::Square => "square", Kernel::Round => "round" },
+                })
+            );
+        } else {
+            eprintln!(
+                "wrote {} in {:.1} ms",
+                out.display(),
+                t.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        return Ok(());
+    }
     if is_tg(input)? {
         let bytes = std::fs::read(input)
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", input.display()))?;

@@ -1,0 +1,107 @@
+//! QSplat (`.qs`) files on the desktop: reading them with a file name in every error, and rendering
+//! them through the same camera, light, shading table and raster as the tri-grid.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use pocketsplat_core::camera::{self, Placement};
+use pocketsplat_core::qs::{render_qs_colored, QSplat, QsFrame, QsRenderOptions, MAGIC};
+use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::shade::{Material, ShadingTable};
+use pocketsplat_core::splat::{ShadedRaster, Stats};
+
+use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
+
+/// Whether `path` is a `.qs` file: its first bytes are `QSplat11`, or failing that its extension is
+/// `.qs` (so that a damaged one is reported as a bad `.qs` file, not as a bad mesh).
+///
+/// # Errors
+/// When the file cannot be opened.
+pub fn is_qs(path: &Path) -> Result<bool> {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    let mut f = std::fs::File::open(path)
+        .map_err(|e| anyhow::anyhow!("cannot open {}: {e}", path.display()))?;
+    let n = f.read(&mut magic).unwrap_or(0);
+    Ok((n == 8 && magic == MAGIC)
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("qs")))
+}
+
+/// Reads a `.qs` file and validates it, naming the file in any error.
+///
+/// # Errors
+/// When the file cannot be read or is not a valid `.qs` file.
+pub fn read_qs(path: &Path) -> Result<Vec<u8>> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    QSplat::open(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(bytes)
+}
+
+/// The material a file is shaded with: the settings' own, or, when its samples carry colours, the
+/// same material in white, which the colours then tint.
+pub fn qs_material(file: &QSplat<'_>, settings: &Settings) -> Material {
+    if file.counts().color_trees > 0 {
+        Material {
+            color: [1.0; 3],
+            ..settings.material
+        }
+    } else {
+        settings.material
+    }
+}
+
+/// Renders one frame of a `.qs` file into `out` (cleared first).
+///
+/// # Errors
+/// When the frame cannot be set up or shadows are asked for (not implemented for `.qs`).
+pub fn render_qs_frame(
+    file: &QSplat<'_>,
+    settings: &Settings,
+    out: &mut FrameBuffers,
+) -> Result<FrameReport> {
+    let mut table = Box::new(ShadingTable::<1>::new());
+    render_qs_with(file, settings, &mut table, out, |_, _| {})
+}
+
+/// Renders with a caller-owned shading table and a hook that may draw over the frame.
+///
+/// # Errors
+/// When the frame cannot be set up or shadows are asked for.
+pub fn render_qs_with(
+    file: &QSplat<'_>,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
+) -> Result<FrameReport> {
+    if settings.shadows != ShadowMode::Off {
+        bail!("shadows are implemented for .tg files only; render .qs files with --shadows off");
+    }
+    let cam = settings.camera(file.bounds());
+    let opts = QsRenderOptions {
+        cutoff_px: settings.cutoff_px,
+        kernel: settings.kernel,
+        backface_culling: true,
+    };
+    let t = Instant::now();
+    let frame = QsFrame::new(file, &Placement::IDENTITY, &cam, &opts)?;
+    table.update(
+        &[qs_material(file, settings)],
+        settings.light_dir(),
+        camera::scale(cam.forward, -1.0),
+    );
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+    fb.clear(0);
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table,
+        kernel: settings.kernel,
+    };
+    let stats = render_qs_colored(file, &frame, &mut sink);
+    let time = t.elapsed();
+    overlay(&mut fb, &stats);
+    Ok(FrameReport { stats, time })
+}
