@@ -163,6 +163,26 @@ enum ReportKind {
         #[arg(long, default_value_t = 5)]
         repeats: usize,
     },
+    /// Error against run time: every view × cutoff (0.5–16 px) × method (tri-grid, octree, QSplat,
+    /// brute force) × kernel × shadows, measured against the f64 reference renderer. Writes
+    /// DIR/results.csv, DIR/results.md and PNG plots of PSNR against time.
+    ErrorVsTime {
+        /// A mesh (PLY).
+        scene: PathBuf,
+        /// Output folder.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// The reduced sweep for CI: tri-grid depth 4, cutoffs 1 and 4 px, one repeat.
+        #[arg(long)]
+        quick: bool,
+        /// Tri-grid subdivisions (default 6, or 4 with --quick); the octree gets the nearest
+        /// resolution.
+        #[arg(long)]
+        depth: Option<u8>,
+        /// Timed repeats per frame, the median is reported (default 5, or 1 with --quick).
+        #[arg(long)]
+        repeats: Option<usize>,
+    },
     /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
     Paper {
         /// Folder with the Stanford models (default: $POCKETSPLAT_MODELS or ../shared/models).
@@ -279,6 +299,26 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Report {
             which: ReportKind::Stability { out, group },
         }) => report::stability::command(out.as_deref(), &group),
+        Some(Command::Report {
+            which:
+                ReportKind::ErrorVsTime {
+                    scene,
+                    out,
+                    quick,
+                    depth,
+                    repeats,
+                },
+        }) => {
+            let opts = report::error_vs_time::Options {
+                quick,
+                depth,
+                repeats,
+            };
+            for path in report::error_vs_time::run(&scene, &out, &opts)? {
+                println!("{}", path.display());
+            }
+            Ok(())
+        }
         Some(Command::Report {
             which: ReportKind::Paper { models, quick },
         }) => {

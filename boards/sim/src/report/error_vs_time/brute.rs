@@ -1,0 +1,288 @@
+//! The brute-force baseline of the error-against-run-time report: every leaf sample of a grid as a
+//! flat point list, each one projected with an `f64` matrix and splatted at its leaf size. No
+//! hierarchy, no level of detail, no integer tables: the naive method the hierarchical renderers have
+//! to beat (it runs on the host's FPU; a handheld without one would emulate every operation).
+//!
+//! A point is skipped when it lies in front of the near plane, faces away from the eye
+//! (`n · (p − eye) > 0`, exact per point, where the tri-grid's test is conservative per frame) or its
+//! splat misses the frame. The splat is the one the tri-grid traversal draws for a leaf (the
+//! projected diameter of the cell's bounding sphere, `√3 · side · f / z`), shaded through the same
+//! table and depth-tested in the same 16-bit buffer, so the two differ only in how they choose and
+//! project samples.
+
+use std::time::Instant;
+
+use pocketsplat_core::camera::{self, Camera, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
+use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::splat::Stats;
+use pocketsplat_core::tg::TriGrid;
+
+use crate::render::{FrameBuffers, FrameReport, Settings};
+
+/// The leaf samples of a grid as a flat point list (the brute-force "format").
+#[derive(Clone, Debug)]
+pub struct LeafCloud {
+    /// Cell centres, model units.
+    pub points: Vec<Vec3>,
+    /// Attribute (normal code | material << 13) of each point.
+    pub attrs: Vec<u16>,
+    /// Side of a leaf cell, model units.
+    pub leaf_side: f64,
+    /// Minimum corner and side of the root cube, model units (for the depth range).
+    pub root: (Vec3, f64),
+    /// Bounding box of the mesh, model units (the views orbit its centre).
+    pub bounds: [[f32; 3]; 2],
+}
+
+impl LeafCloud {
+    /// Every leaf sample of `grid`, in file order: the cells of each level are found from their
+    /// parents' child masks (FORMAT.md: breadth-first, by parent then slot).
+    pub fn from_grid(grid: &TriGrid<'_>) -> Self {
+        let h = grid.header();
+        let rho = u32::from(h.rho);
+        let mut cells: Vec<[u32; 3]> = vec![[0; 3]];
+        for level in 0..h.depth {
+            let mut next = Vec::with_capacity(grid.level(level + 1).count as usize);
+            for (i, c) in cells.iter().enumerate() {
+                let mut mask = grid.mask(level, i as u32);
+                while mask != 0 {
+                    let s = mask.trailing_zeros();
+                    mask &= mask - 1;
+                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
+                    next.push([0, 1, 2].map(|k| c[k] * rho + ijk[k]));
+                }
+            }
+            cells = next;
+        }
+        let side = f64::from(h.side);
+        let leaf_side = side / f64::from(rho).powi(i32::from(h.depth));
+        let origin = h.origin.map(f64::from);
+        let points = cells
+            .iter()
+            .map(|c| [0, 1, 2].map(|k| origin[k] + (f64::from(c[k]) + 0.5) * leaf_side))
+            .collect();
+        let attrs = (0..cells.len() as u32)
+            .map(|i| grid.attr(h.depth, i))
+            .collect();
+        Self {
+            points,
+            attrs,
+            leaf_side,
+            root: (origin, side),
+            bounds: h.bounds,
+        }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Renders one frame with `settings` (view, kernel, light, material; the cutoff and shadows are
+    /// ignored: every point is drawn, unshadowed) into `out`, cleared first. The time covers the
+    /// same span as the tri-grid's: camera and shading-table setup, projection and raster.
+    /// `nodes_visited` counts every point, `culled` the points in front of the near plane or off
+    /// the frame.
+    pub fn render(
+        &self,
+        settings: &Settings,
+        table: &mut ShadingTable<1>,
+        out: &mut FrameBuffers,
+    ) -> FrameReport {
+        let t = Instant::now();
+        let cam = settings.camera(self.bounds);
+        table.update(
+            &[settings.material],
+            settings.light_dir(),
+            camera::scale(cam.forward, -1.0),
+        );
+        let (z0, z_scale) = self.depth_map(&cam);
+        let size_k = 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0;
+        let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+        fb.clear(0);
+        let mut stats = Stats {
+            nodes_visited: self.points.len() as u32,
+            ..Stats::default()
+        };
+        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
+        for (p, &attr) in self.points.iter().zip(&self.attrs) {
+            let d = camera::sub(*p, cam.eye);
+            let z = camera::dot(d, cam.forward);
+            if z < cam.near {
+                stats.culled += 1;
+                continue;
+            }
+            let n = NORMALS_Q14[usize::from(attr) & (NORMAL_COUNT - 1)];
+            let n = n.map(f64::from);
+            if n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
+                stats.backfacing += 1;
+                continue;
+            }
+            let inv = cam.focal_px / z;
+            let sx = cx + camera::dot(d, cam.right) * inv;
+            let sy = cy - camera::dot(d, cam.up) * inv;
+            let size_q4 = size_k / z;
+            let r = size_q4 / 32.0 + 1.0;
+            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
+                stats.culled += 1;
+                continue;
+            }
+            let depth = ((z - z0) * z_scale).clamp(0.0, 65534.0) as u16;
+            fb.splat(
+                &Splat {
+                    x_q4: (sx * 16.0).round() as i32,
+                    y_q4: (sy * 16.0).round() as i32,
+                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
+                    depth,
+                    color: table.color(attr),
+                },
+                settings.kernel,
+            );
+            stats.splats += 1;
+        }
+        FrameReport {
+            stats,
+            time: t.elapsed(),
+        }
+    }
+
+    /// Depth `(z − z0) · scale` spreads 0..=65534 over the root cube's camera depths (as the
+    /// tri-grid frame does), from the near plane at the closest.
+    fn depth_map(&self, cam: &Camera) -> (f64, f64) {
+        let (origin, side) = self.root;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for corner in 0..8 {
+            let p: Vec3 =
+                std::array::from_fn(|k| origin[k] + if corner >> k & 1 != 0 { side } else { 0.0 });
+            let z = cam.to_camera(p)[2];
+            lo = lo.min(z);
+            hi = hi.max(z);
+        }
+        let lo = lo.max(cam.near);
+        let hi = hi.max(lo * (1.0 + 1e-9) + f64::MIN_POSITIVE);
+        (lo, 65534.0 / (hi - lo))
+    }
+}
+
+/// The kernel names used in the report.
+pub fn kernel_name(k: Kernel) -> &'static str {
+    match k {
+        Kernel::Square => "square",
+        Kernel::Round => "round",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use pocketsplat_core::bake::{BakeOptions, TriMesh};
+    use pocketsplat_core::tg::Verify;
+
+    use super::*;
+    use crate::cmd::bake::bake_mesh;
+    use crate::metrics::{coverage_mismatch, psnr_rgb8};
+    use crate::render::render_tg_frame;
+    use pocketsplat_core::shade::rgb565_to_rgb888;
+
+    fn knot_grid(depth: u8) -> Vec<u8> {
+        let mesh: TriMesh = crate::demo::trefoil(96, 12, 0.45);
+        bake_mesh(&mesh, BakeOptions { rho: 3, depth }, 12, false)
+            .unwrap()
+            .1
+    }
+
+    #[test]
+    fn every_leaf_is_found_once_at_its_cell_centre() {
+        let bytes = knot_grid(4);
+        let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+        let cloud = LeafCloud::from_grid(&grid);
+        assert_eq!(cloud.len(), grid.leaf_samples() as usize);
+        let h = grid.header();
+        let cells = 81.0;
+        // Every point is the centre of a distinct leaf cell inside the root cube.
+        let mut seen = std::collections::HashSet::new();
+        for p in &cloud.points {
+            let ijk: [i64; 3] = std::array::from_fn(|k| {
+                let u = (p[k] - f64::from(h.origin[k])) / cloud.leaf_side - 0.5;
+                assert!((u - u.round()).abs() < 1e-6, "{p:?} is not a cell centre");
+                assert!(
+                    u > -0.5 && u < cells - 0.5,
+                    "{p:?} is outside the root cube"
+                );
+                u.round() as i64
+            });
+            assert!(seen.insert(ijk), "cell {ijk:?} twice");
+        }
+        assert_eq!(cloud.attrs.len(), cloud.len());
+    }
+
+    /// With a cutoff far below a pixel the tri-grid draws its leaves too: the two images must agree
+    /// but for the rounding of the integer projection and the backface tests.
+    #[test]
+    fn matches_the_trigrid_drawing_all_leaves() {
+        let bytes = knot_grid(4);
+        let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+        let cloud = LeafCloud::from_grid(&grid);
+        for kernel in [Kernel::Square, Kernel::Round] {
+            let settings = Settings {
+                cutoff_px: 0.01,
+                kernel,
+                ..Settings::default()
+            };
+            let mut tg = FrameBuffers::new();
+            let r = render_tg_frame(&grid, &settings, &mut tg).unwrap();
+            let mut brute = FrameBuffers::new();
+            let mut table = Box::new(ShadingTable::<1>::new());
+            let b = cloud.render(&settings, &mut table, &mut brute);
+            assert_eq!(r.stats.max_level, h_depth(&grid));
+            assert_eq!(b.stats.nodes_visited as usize, cloud.len());
+            assert!(b.stats.splats > 0 && b.stats.splats <= cloud.len() as u32);
+            let rgb = |f: &FrameBuffers| -> Vec<[u8; 3]> {
+                f.pixels().iter().map(|&p| rgb565_to_rgb888(p)).collect()
+            };
+            let mismatch = coverage_mismatch(&tg.covered(), &brute.covered());
+            let psnr = psnr_rgb8(&rgb(&tg), &rgb(&brute));
+            // Differences are at silhouettes: the tri-grid also draws samples that face away
+            // from some rays of the view (its test is per frame), the brute force none.
+            let differ = tg
+                .pixels()
+                .iter()
+                .zip(brute.pixels())
+                .filter(|(a, b)| a != b)
+                .count();
+            assert!(mismatch < 0.01, "{kernel:?}: coverage mismatch {mismatch}");
+            assert!(
+                differ < tg.pixels().len() / 50,
+                "{kernel:?}: {differ} pixels differ"
+            );
+            assert!(psnr > 25.0, "{kernel:?}: PSNR {psnr} dB");
+        }
+    }
+
+    fn h_depth(grid: &TriGrid<'_>) -> u8 {
+        grid.header().depth
+    }
+
+    #[test]
+    fn a_camera_inside_the_cloud_draws_nothing_behind_it() {
+        let bytes = knot_grid(3);
+        let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+        let cloud = LeafCloud::from_grid(&grid);
+        let settings = Settings {
+            view: camera::View::new(0.0, 0.0, 0.0001),
+            ..Settings::default()
+        };
+        let mut out = FrameBuffers::new();
+        let mut table = Box::new(ShadingTable::<1>::new());
+        let r = cloud.render(&settings, &mut table, &mut out);
+        let s = r.stats;
+        assert_eq!(s.culled + s.backfacing + s.splats, s.nodes_visited, "{s:?}");
+        assert!(s.culled > 0, "{s:?}");
+    }
+}

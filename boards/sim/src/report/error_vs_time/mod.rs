@@ -1,0 +1,1054 @@
+//! `pocketsplat report error-vs-time SCENE -o DIR`: image error against run time, for every way the
+//! project can draw a subject.
+//!
+//! For each of the subject's named views the report sweeps the LOD cutoff, the methods (formats and
+//! their renderers), the splat kernels and the shadow algorithms a method supports, and measures each
+//! frame against the f64 reference renderer of the original mesh: PSNR, coverage mismatch and holes
+//! ([`crate::metrics`]), host time per frame (median of repeats), nodes visited and splats drawn.
+//! It writes `results.csv` (one row per frame), `results.md` (the best PSNR each method reaches
+//! within a time budget, then every row) and PNG plots of PSNR against time on a log axis, one curve
+//! per method through its Pareto-optimal frames: one plot per view and one for the mean over views.
+//!
+//! A subject is a list of named views, a reference render function and a list of [`Method`]s: a
+//! mesh today ([`mesh_subject`]: tri-grid, octree, QSplat and brute force over the four standard
+//! views), and anything else that can name its views and draw them plugs in the same way.
+//!
+//! Not measured yet, and said so in the outputs: ARM instructions per frame (needs a way to run a
+//! given frame configuration under QEMU and read its count); shadowed frames are compared with the
+//! unshadowed reference until the reference renderer casts shadow rays.
+
+pub mod brute;
+pub mod plot;
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use cpu_time::ThreadTime;
+use pocketsplat_core::bake::{BakeOptions, TriMesh};
+use pocketsplat_core::camera::{View, STANDARD_VIEWS};
+use pocketsplat_core::qs::write::{bake_qs, QsBakeOptions};
+use pocketsplat_core::qs::QSplat;
+use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::shade::{rgb565_to_rgb888, ShadingTable};
+use pocketsplat_core::tg::{TriGrid, Verify};
+
+use crate::cmd::bake::bake_mesh;
+use crate::fsutil::write_atomic;
+use crate::metrics::{coverage_mismatch, psnr_rgb8};
+use crate::qsplat::render_qs_with;
+use crate::reference::{render_reference, RefImage};
+use crate::render::{render_tg_with, FrameBuffers, FrameReport, Settings, ShadowMode};
+
+use brute::{kernel_name, LeafCloud};
+
+/// Cutoffs of the full sweep, pixels.
+pub const CUTOFFS_PX: [f32; 6] = [0.5, 1.0, 2.0, 4.0, 8.0, 16.0];
+/// Cutoffs of `--quick`, pixels.
+pub const QUICK_CUTOFFS_PX: [f32; 2] = [1.0, 4.0];
+/// Tri-grid depth of the full sweep.
+pub const DEPTH: u8 = 6;
+/// Tri-grid depth of `--quick`.
+pub const QUICK_DEPTH: u8 = 4;
+/// Time budgets of the headline table, ms.
+pub const BUDGETS_MS: [f64; 9] = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0];
+/// Why the ARM column is empty.
+pub const ARM_NOT_MEASURED: &str = "not measured: no way yet to run a given frame configuration \
+     under QEMU and read its instruction count";
+
+/// One frame configuration of a method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameConfig {
+    /// LOD cutoff, pixels (ignored by methods without one).
+    pub cutoff_px: f32,
+    /// Splat kernel.
+    pub kernel: Kernel,
+    /// Shadow algorithm.
+    pub shadows: ShadowMode,
+}
+
+/// A way to draw a subject: a format and its renderer.
+pub trait Method {
+    /// Short name in tables and plots: `trigrid`, `octree`, `qsplat`, `brute`.
+    fn name(&self) -> &str;
+    /// What was baked, e.g. `ρ=3 depth 6, 1234567 leaves`.
+    fn detail(&self) -> String;
+    /// Whether the cutoff changes the frame (the brute force draws every leaf whatever it is).
+    fn uses_cutoff(&self) -> bool;
+    /// Whether it can draw these shadows.
+    fn supports(&self, shadows: ShadowMode) -> bool;
+    /// Renders `view` into `out` (cleared first), timing setup, traversal and raster.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up.
+    fn render(
+        &mut self,
+        view: View,
+        cfg: &FrameConfig,
+        out: &mut FrameBuffers,
+    ) -> Result<FrameReport>;
+}
+
+/// What a shadowed frame was compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RefShadows {
+    /// The reference without shadows.
+    None,
+    /// Exact shadow rays against the mesh.
+    RayCast,
+}
+
+impl RefShadows {
+    fn name(self) -> &'static str {
+        match self {
+            RefShadows::None => "unshadowed",
+            RefShadows::RayCast => "ray-cast",
+        }
+    }
+}
+
+/// A reference frame and how its shadows were made.
+pub struct Reference {
+    /// The f64 image.
+    pub image: RefImage,
+    /// Shadows in it.
+    pub shadows: RefShadows,
+}
+
+/// The reference render function of a subject: `(view, with shadows)` → frame.
+pub type ReferenceFn<'a> = Box<dyn Fn(View, bool) -> Result<Reference> + 'a>;
+
+/// What the report sweeps over.
+pub struct Subject<'a> {
+    /// Name in titles (the file name of the mesh or scene).
+    pub name: String,
+    /// Named views.
+    pub views: Vec<(String, View)>,
+    /// The ground truth.
+    pub reference: ReferenceFn<'a>,
+    /// The methods compared.
+    pub methods: Vec<Box<dyn Method + 'a>>,
+}
+
+/// The sweep's axes other than views and methods.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sweep {
+    /// Cutoffs, pixels.
+    pub cutoffs: Vec<f32>,
+    /// Kernels.
+    pub kernels: Vec<Kernel>,
+    /// Shadow algorithms (each method runs those it supports).
+    pub shadows: Vec<ShadowMode>,
+    /// Timed repeats per frame; the median is reported.
+    pub repeats: usize,
+}
+
+impl Sweep {
+    /// The full sweep: six cutoffs, both kernels, shadows off / one-pass / two-pass.
+    pub fn full(repeats: usize) -> Self {
+        Self {
+            cutoffs: CUTOFFS_PX.to_vec(),
+            kernels: vec![Kernel::Square, Kernel::Round],
+            shadows: vec![ShadowMode::Off, ShadowMode::OnePass, ShadowMode::TwoPass],
+            repeats,
+        }
+    }
+    /// `--quick`: two cutoffs, everything else as [`Sweep::full`].
+    pub fn quick(repeats: usize) -> Self {
+        Self {
+            cutoffs: QUICK_CUTOFFS_PX.to_vec(),
+            ..Self::full(repeats)
+        }
+    }
+}
+
+/// One measured frame: a row of `results.csv`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Row {
+    /// Subject name.
+    pub scene: String,
+    /// View name.
+    pub view: String,
+    /// Method name.
+    pub method: String,
+    /// What was baked.
+    pub detail: String,
+    /// `square` or `round`.
+    pub kernel: String,
+    /// `off`, `one-pass` or `two-pass`.
+    pub shadows: String,
+    /// LOD cutoff, pixels; `None` for methods without one.
+    pub cutoff_px: Option<f32>,
+    /// PSNR against the reference, dB (8-bit RGB); infinite for an exact match.
+    pub psnr_db: f64,
+    /// Fraction of pixels covered by one image and not the other.
+    pub coverage_mismatch: f64,
+    /// Fraction of pixels the reference covers and the frame misses.
+    pub holes: f64,
+    /// Median host time per frame, ms: CPU time of the rendering thread (wall time where the
+    /// thread's CPU clock is not available), so that other processes on the machine do not count.
+    pub ms: f64,
+    /// Median wall time per frame, ms, as the renderer measures it (setup, traversal, raster).
+    pub wall_ms: f64,
+    /// Nodes visited (points processed by the brute force).
+    pub nodes_visited: u32,
+    /// Splats drawn.
+    pub splats: u32,
+    /// ARM instructions per frame under QEMU, when measured.
+    pub arm_instructions: Option<u64>,
+    /// What shadowed frames were compared with (`unshadowed` or `ray-cast`); `-` without shadows.
+    pub reference: String,
+}
+
+/// Name of a shadow mode in the report.
+pub fn shadows_name(s: ShadowMode) -> &'static str {
+    match s {
+        ShadowMode::Off => "off",
+        ShadowMode::OnePass => "one-pass",
+        ShadowMode::TwoPass => "two-pass",
+    }
+}
+
+/// Median of durations (the upper one of an even count).
+fn median(mut t: Vec<Duration>) -> Duration {
+    t.sort();
+    t[t.len() / 2]
+}
+
+/// Runs the sweep over every view of `subject`; `log` receives one line per view and method.
+///
+/// # Errors
+/// When a reference or a frame cannot be made.
+pub fn measure(
+    subject: &mut Subject<'_>,
+    sweep: &Sweep,
+    mut log: impl FnMut(&str),
+) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    let mut fb = FrameBuffers::new();
+    for (view_name, view) in &subject.views {
+        let plain = (subject.reference)(*view, false)
+            .with_context(|| format!("reference of view {view_name}"))?;
+        let mut shadowed: Option<Reference> = None;
+        for method in &mut subject.methods {
+            log(&format!("{view_name}: {}", method.name()));
+            for &kernel in &sweep.kernels {
+                for &shadows in &sweep.shadows {
+                    if !method.supports(shadows) {
+                        continue;
+                    }
+                    let cutoffs: Vec<Option<f32>> = if method.uses_cutoff() {
+                        sweep.cutoffs.iter().copied().map(Some).collect()
+                    } else {
+                        vec![None]
+                    };
+                    for cutoff in cutoffs {
+                        let cfg = FrameConfig {
+                            cutoff_px: cutoff.unwrap_or(1.0),
+                            kernel,
+                            shadows,
+                        };
+                        let mut times = Vec::with_capacity(sweep.repeats.max(1));
+                        let mut walls = Vec::with_capacity(sweep.repeats.max(1));
+                        let mut stats = None;
+                        for _ in 0..sweep.repeats.max(1) {
+                            let cpu = ThreadTime::try_now().ok();
+                            let r = method.render(*view, &cfg, &mut fb).with_context(|| {
+                                format!("{} frame of view {view_name}", method.name())
+                            })?;
+                            times.push(cpu.and_then(|c| c.try_elapsed().ok()).unwrap_or(r.time));
+                            walls.push(r.time);
+                            stats = Some(r.stats);
+                        }
+                        let stats = stats.expect("at least one frame");
+                        let reference = if shadows == ShadowMode::Off {
+                            &plain
+                        } else {
+                            if shadowed.is_none() {
+                                shadowed =
+                                    Some((subject.reference)(*view, true).with_context(|| {
+                                        format!("shadowed reference of view {view_name}")
+                                    })?);
+                            }
+                            shadowed.as_ref().expect("just made")
+                        };
+                        let (psnr_db, coverage, holes) = compare(&reference.image, &fb);
+                        rows.push(Row {
+                            scene: subject.name.clone(),
+                            view: view_name.clone(),
+                            method: method.name().to_owned(),
+                            detail: method.detail(),
+                            kernel: kernel_name(kernel).to_owned(),
+                            shadows: shadows_name(shadows).to_owned(),
+                            cutoff_px: cutoff,
+                            psnr_db,
+                            coverage_mismatch: coverage,
+                            holes,
+                            ms: median(times).as_secs_f64() * 1e3,
+                            wall_ms: median(walls).as_secs_f64() * 1e3,
+                            nodes_visited: stats.nodes_visited,
+                            splats: stats.splats,
+                            arm_instructions: None,
+                            reference: if shadows == ShadowMode::Off {
+                                "-".to_owned()
+                            } else {
+                                reference.shadows.name().to_owned()
+                            },
+                        });
+                    }
+                }
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// PSNR, coverage mismatch and holes of a frame against the reference.
+fn compare(reference: &RefImage, frame: &FrameBuffers) -> (f64, f64, f64) {
+    let rgb: Vec<[u8; 3]> = frame
+        .pixels()
+        .iter()
+        .map(|&p| rgb565_to_rgb888(p))
+        .collect();
+    let covered = frame.covered();
+    let holes = reference
+        .covered
+        .iter()
+        .zip(&covered)
+        .filter(|&(&r, &c)| r && !c)
+        .count();
+    (
+        psnr_rgb8(&reference.to_rgb8(), &rgb),
+        coverage_mismatch(&reference.covered, &covered),
+        holes as f64 / covered.len() as f64,
+    )
+}
+
+/// A tri-grid (any ρ the traversal draws) and its renderer, with a shading table kept across frames.
+pub struct TgMethod<'a> {
+    name: &'static str,
+    grid: TriGrid<'a>,
+    table: Box<ShadingTable<1>>,
+}
+
+impl<'a> TgMethod<'a> {
+    /// Opens a baked file.
+    ///
+    /// # Errors
+    /// When the bytes are not a valid `.tg` file.
+    pub fn new(name: &'static str, bytes: &'a [u8]) -> Result<Self> {
+        Ok(Self {
+            name,
+            grid: TriGrid::open(bytes, Verify::Structure)?,
+            table: Box::new(ShadingTable::new()),
+        })
+    }
+}
+
+impl Method for TgMethod<'_> {
+    fn name(&self) -> &str {
+        self.name
+    }
+    fn detail(&self) -> String {
+        let h = self.grid.header();
+        format!(
+            "ρ={} depth {} ({} cells across), {} leaves",
+            h.rho,
+            h.depth,
+            u32::from(h.rho).pow(u32::from(h.depth)),
+            self.grid.leaf_samples()
+        )
+    }
+    fn uses_cutoff(&self) -> bool {
+        true
+    }
+    fn supports(&self, _: ShadowMode) -> bool {
+        true
+    }
+    fn render(
+        &mut self,
+        view: View,
+        cfg: &FrameConfig,
+        out: &mut FrameBuffers,
+    ) -> Result<FrameReport> {
+        let settings = Settings {
+            view,
+            cutoff_px: cfg.cutoff_px,
+            kernel: cfg.kernel,
+            shadows: cfg.shadows,
+            ..Settings::default()
+        };
+        render_tg_with(&self.grid, &settings, &mut self.table, out, |_, _| {})
+    }
+}
+
+/// The brute-force baseline over a grid's leaves ([`brute`]).
+pub struct BruteMethod {
+    cloud: LeafCloud,
+    detail: String,
+    table: Box<ShadingTable<1>>,
+}
+
+impl BruteMethod {
+    /// The leaves of `grid` as a point list.
+    pub fn new(grid: &TriGrid<'_>) -> Self {
+        let h = grid.header();
+        let cloud = LeafCloud::from_grid(grid);
+        Self {
+            detail: format!(
+                "every leaf of the ρ={} depth {} grid, {} points",
+                h.rho,
+                h.depth,
+                cloud.len()
+            ),
+            cloud,
+            table: Box::new(ShadingTable::new()),
+        }
+    }
+}
+
+impl Method for BruteMethod {
+    fn name(&self) -> &str {
+        "brute"
+    }
+    fn detail(&self) -> String {
+        self.detail.clone()
+    }
+    fn uses_cutoff(&self) -> bool {
+        false
+    }
+    fn supports(&self, shadows: ShadowMode) -> bool {
+        shadows == ShadowMode::Off
+    }
+    fn render(
+        &mut self,
+        view: View,
+        cfg: &FrameConfig,
+        out: &mut FrameBuffers,
+    ) -> Result<FrameReport> {
+        let settings = Settings {
+            view,
+            kernel: cfg.kernel,
+            ..Settings::default()
+        };
+        Ok(self.cloud.render(&settings, &mut self.table, out))
+    }
+}
+
+/// A QSplat bounding-sphere tree and its renderer (no shadows: the `.qs` renderer has none).
+pub struct QsMethod<'a> {
+    file: QSplat<'a>,
+    table: Box<ShadingTable<1>>,
+}
+
+impl<'a> QsMethod<'a> {
+    /// Opens a baked `.qs` file.
+    ///
+    /// # Errors
+    /// When the bytes are not a valid `.qs` file.
+    pub fn new(bytes: &'a [u8]) -> Result<Self> {
+        Ok(Self {
+            file: QSplat::open(bytes).map_err(|e| anyhow::anyhow!("baked .qs file: {e}"))?,
+            table: Box::new(ShadingTable::new()),
+        })
+    }
+}
+
+impl Method for QsMethod<'_> {
+    fn name(&self) -> &str {
+        "qsplat"
+    }
+    fn detail(&self) -> String {
+        let c = self.file.counts();
+        format!(
+            "QSplat tree of the mesh's vertices, {} leaves, depth {}",
+            c.leaves, c.max_depth
+        )
+    }
+    fn uses_cutoff(&self) -> bool {
+        true
+    }
+    fn supports(&self, shadows: ShadowMode) -> bool {
+        shadows == ShadowMode::Off
+    }
+    fn render(
+        &mut self,
+        view: View,
+        cfg: &FrameConfig,
+        out: &mut FrameBuffers,
+    ) -> Result<FrameReport> {
+        let settings = Settings {
+            view,
+            cutoff_px: cfg.cutoff_px,
+            kernel: cfg.kernel,
+            ..Settings::default()
+        };
+        render_qs_with(&self.file, &settings, &mut self.table, out, |_, _| {})
+    }
+}
+
+/// The octree depth whose cells per axis (2^d) are nearest ρ^depth: the octree at the tri-grid's
+/// resolution (a tie goes to the coarser).
+pub fn octree_depth_near(rho: u8, depth: u8) -> u8 {
+    let cells = u64::from(rho).pow(u32::from(depth));
+    (0..=pocketsplat_core::tg::MAX_DEPTH)
+        .min_by_key(|&d| (1u64 << d).abs_diff(cells))
+        .unwrap_or(0)
+}
+
+/// Baked files of a mesh subject, owned here so the methods can borrow them.
+pub struct MeshBakes {
+    /// Tri-grid (ρ = 3) file.
+    pub trigrid: Vec<u8>,
+    /// Octree (ρ = 2) file at the nearest resolution.
+    pub octree: Vec<u8>,
+    /// QSplat file (one leaf per vertex, whatever the depth).
+    pub qsplat: Vec<u8>,
+}
+
+impl MeshBakes {
+    /// Bakes `mesh` as a tri-grid of `depth`, an octree of the nearest resolution and a QSplat
+    /// tree.
+    ///
+    /// # Errors
+    /// When a bake fails.
+    pub fn bake(mesh: &TriMesh, depth: u8) -> Result<Self> {
+        let bake = |rho: u8, depth: u8| -> Result<Vec<u8>> {
+            Ok(bake_mesh(mesh, BakeOptions { rho, depth }, 12, false)
+                .with_context(|| format!("cannot bake ρ={rho} depth {depth}"))?
+                .1)
+        };
+        Ok(Self {
+            trigrid: bake(3, depth)?,
+            octree: bake(2, octree_depth_near(3, depth))?,
+            qsplat: bake_qs(mesh, &QsBakeOptions::default())
+                .map_err(|e| anyhow::anyhow!("cannot bake QSplat: {e}"))?
+                .bytes,
+        })
+    }
+}
+
+/// A mesh as a subject: its four standard views, the reference renderer of the mesh, and the
+/// tri-grid, octree, QSplat and brute-force methods over `bakes`.
+///
+/// # Errors
+/// When a baked file does not open.
+pub fn mesh_subject<'a>(
+    name: &str,
+    mesh: &'a TriMesh,
+    bakes: &'a MeshBakes,
+) -> Result<Subject<'a>> {
+    let trigrid = TgMethod::new("trigrid", &bakes.trigrid)?;
+    let brute = BruteMethod::new(&trigrid.grid);
+    let octree = TgMethod::new("octree", &bakes.octree)?;
+    let qsplat = QsMethod::new(&bakes.qsplat)?;
+    Ok(Subject {
+        name: name.to_owned(),
+        views: STANDARD_VIEWS
+            .iter()
+            .map(|&(n, v)| (n.to_owned(), v))
+            .collect(),
+        reference: Box::new(move |view, _shadows| {
+            let s = Settings {
+                view,
+                ..Settings::default()
+            };
+            let image = render_reference(
+                mesh,
+                &s.camera(mesh.bounds_f32()),
+                &[s.material],
+                s.light_dir(),
+            );
+            Ok(Reference {
+                image,
+                shadows: RefShadows::None,
+            })
+        }),
+        methods: vec![
+            Box::new(trigrid),
+            Box::new(octree),
+            Box::new(qsplat),
+            Box::new(brute),
+        ],
+    })
+}
+
+/// Options of the command.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The reduced sweep for CI.
+    pub quick: bool,
+    /// Tri-grid depth (default [`DEPTH`], quick [`QUICK_DEPTH`]).
+    pub depth: Option<u8>,
+    /// Timed repeats (default 5, quick 1).
+    pub repeats: Option<usize>,
+}
+
+/// The files the report writes, by name.
+pub struct Outputs {
+    /// `(file name, bytes)`, written together at the end.
+    pub files: Vec<(String, Vec<u8>)>,
+}
+
+/// The `report error-vs-time` command: measures `scene` and writes the report into `out_dir`.
+/// Nothing is written unless every frame and plot was made.
+///
+/// # Errors
+/// When the scene cannot be read or baked, a frame fails, or a file cannot be written.
+pub fn run(scene: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>> {
+    if out_dir.exists() && !out_dir.is_dir() {
+        bail!("{}: exists and is not a folder", out_dir.display());
+    }
+    let ext = scene
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext == "toml" || ext == "pack" {
+        bail!(
+            "{}: scenes are not supported by `report error-vs-time` yet; give a mesh (PLY)",
+            scene.display()
+        );
+    }
+    let depth = opts
+        .depth
+        .unwrap_or(if opts.quick { QUICK_DEPTH } else { DEPTH });
+    if !(1..=pocketsplat_core::tg::MAX_DEPTH).contains(&depth) {
+        bail!(
+            "--depth {depth}: must be 1..={}",
+            pocketsplat_core::tg::MAX_DEPTH
+        );
+    }
+    let repeats = opts.repeats.unwrap_or(if opts.quick { 1 } else { 5 });
+    if repeats == 0 {
+        bail!("--repeats 0: need at least one timed frame");
+    }
+    let sweep = if opts.quick {
+        Sweep::quick(repeats)
+    } else {
+        Sweep::full(repeats)
+    };
+    let mesh = crate::ply::load_mesh(scene)?;
+    let bakes =
+        MeshBakes::bake(&mesh, depth).with_context(|| format!("{}: bake", scene.display()))?;
+    let name = scene
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| scene.display().to_string());
+    let mut subject = mesh_subject(&name, &mesh, &bakes)?;
+    let rows = measure(&mut subject, &sweep, |line| eprintln!("measuring {line}"))?;
+    let mut command = format!(
+        "pocketsplat report error-vs-time {} -o {}",
+        scene.display(),
+        out_dir.display()
+    );
+    if opts.quick {
+        command.push_str(" --quick");
+    }
+    if let Some(d) = opts.depth {
+        let _ = write!(command, " --depth {d}");
+    }
+    if let Some(r) = opts.repeats {
+        let _ = write!(command, " --repeats {r}");
+    }
+    let outputs = outputs(&subject, &sweep, &rows, &command)?;
+    std::fs::create_dir_all(out_dir)
+        .with_context(|| format!("cannot create folder {}", out_dir.display()))?;
+    let mut written = Vec::new();
+    for (file, bytes) in &outputs.files {
+        let path = out_dir.join(file);
+        write_atomic(&path, bytes)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// Every output file, in memory.
+///
+/// # Errors
+/// When a plot cannot be drawn.
+pub fn outputs(
+    subject: &Subject<'_>,
+    sweep: &Sweep,
+    rows: &[Row],
+    command: &str,
+) -> Result<Outputs> {
+    let mut files = vec![("results.csv".to_owned(), csv(rows).into_bytes())];
+    let mut plots = Vec::new();
+    let overall = overall_points(rows);
+    plots.push((
+        "psnr-vs-ms.png".to_owned(),
+        plot::plot_png(
+            &format!("{}: mean over views, shadows off", subject.name),
+            &curves(&overall),
+        )?,
+    ));
+    for (view, _) in &subject.views {
+        let points: Vec<Point> = rows
+            .iter()
+            .filter(|r| &r.view == view && r.shadows == "off")
+            .map(Point::of)
+            .collect();
+        plots.push((
+            format!("psnr-vs-ms-{view}.png"),
+            plot::plot_png(
+                &format!("{}: view {view}, shadows off", subject.name),
+                &curves(&points),
+            )?,
+        ));
+    }
+    files.push((
+        "results.md".to_owned(),
+        markdown(subject, sweep, rows, &overall, command).into_bytes(),
+    ));
+    files.extend(plots);
+    Ok(Outputs { files })
+}
+
+/// A frame configuration on a plot: method, kernel, cutoff, time and PSNR.
+#[derive(Clone, Debug, PartialEq)]
+struct Point {
+    method: String,
+    kernel: String,
+    cutoff_px: Option<f32>,
+    ms: f64,
+    psnr_db: f64,
+}
+
+impl Point {
+    fn of(r: &Row) -> Self {
+        Self {
+            method: r.method.clone(),
+            kernel: r.kernel.clone(),
+            cutoff_px: r.cutoff_px,
+            ms: r.ms,
+            psnr_db: r.psnr_db,
+        }
+    }
+    fn label(&self) -> String {
+        match self.cutoff_px {
+            Some(c) => format!("{c} px, {}", self.kernel),
+            None => self.kernel.clone(),
+        }
+    }
+}
+
+/// Shadows-off configurations averaged over the views that have them all: mean time, mean PSNR.
+fn overall_points(rows: &[Row]) -> Vec<Point> {
+    let views: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.view.as_str()).collect();
+    let mut groups: BTreeMap<(String, String, String), Vec<&Row>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.shadows == "off") {
+        let cutoff = r.cutoff_px.map(|c| c.to_string()).unwrap_or_default();
+        groups
+            .entry((r.method.clone(), r.kernel.clone(), cutoff))
+            .or_default()
+            .push(r);
+    }
+    let mut out: Vec<Point> = groups
+        .into_values()
+        .filter(|g| g.len() == views.len())
+        .map(|g| {
+            let n = g.len() as f64;
+            Point {
+                ms: g.iter().map(|r| r.ms).sum::<f64>() / n,
+                psnr_db: g.iter().map(|r| r.psnr_db).sum::<f64>() / n,
+                ..Point::of(g[0])
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.method.cmp(&b.method).then(a.ms.total_cmp(&b.ms)));
+    out
+}
+
+/// Method names in a fixed order (the plots' colours), then any others.
+const METHOD_ORDER: [&str; 4] = ["trigrid", "octree", "qsplat", "brute"];
+
+fn method_order(points: &[Point]) -> Vec<String> {
+    let mut names: Vec<String> = METHOD_ORDER
+        .iter()
+        .filter(|m| points.iter().any(|p| p.method == **m))
+        .map(|m| (*m).to_owned())
+        .collect();
+    for p in points {
+        if !names.contains(&p.method) {
+            names.push(p.method.clone());
+        }
+    }
+    names
+}
+
+fn curves(points: &[Point]) -> Vec<plot::Curve> {
+    method_order(points)
+        .into_iter()
+        .map(|m| plot::Curve {
+            points: points
+                .iter()
+                .filter(|p| p.method == m && p.psnr_db.is_finite() && p.ms > 0.0)
+                .map(|p| (p.ms, p.psnr_db))
+                .collect(),
+            label: m,
+        })
+        .collect()
+}
+
+/// The best point of each method within each budget.
+fn budget_table(points: &[Point]) -> String {
+    let mut out = String::from("| method |");
+    for b in BUDGETS_MS {
+        let _ = write!(out, " ≤ {b} ms |");
+    }
+    out.push_str("\n|---|");
+    out.push_str(&"---|".repeat(BUDGETS_MS.len()));
+    out.push('\n');
+    for m in method_order(points) {
+        let _ = write!(out, "| {m} |");
+        let mut previous = None;
+        for b in BUDGETS_MS {
+            let best = points
+                .iter()
+                .filter(|p| p.method == m && p.ms <= b)
+                // The best PSNR; of equals, the fastest.
+                .max_by(|a, b| a.psnr_db.total_cmp(&b.psnr_db).then(b.ms.total_cmp(&a.ms)));
+            match best {
+                // The same frame as in the budget before: say so briefly.
+                Some(p) if previous == Some(p) => out.push_str(" 〃 |"),
+                Some(p) => {
+                    let _ = write!(
+                        out,
+                        " **{:.2}** dB ({}, {:.2} ms) |",
+                        p.psnr_db,
+                        p.label(),
+                        p.ms
+                    );
+                }
+                None => out.push_str(" — |"),
+            }
+            previous = best;
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// `results.csv`: a header and one line per row; fields never contain commas or quotes except
+/// `detail`, which is quoted.
+pub fn csv(rows: &[Row]) -> String {
+    let mut out = String::from(CSV_HEADER);
+    out.push('\n');
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{},{},{},\"{}\",{},{},{},{:.4},{:.6},{:.6},{:.4},{:.4},{},{},{},{}",
+            r.scene,
+            r.view,
+            r.method,
+            r.detail.replace('"', "'"),
+            r.kernel,
+            r.shadows,
+            r.cutoff_px.map(|c| c.to_string()).unwrap_or_default(),
+            r.psnr_db,
+            r.coverage_mismatch,
+            r.holes,
+            r.ms,
+            r.wall_ms,
+            r.nodes_visited,
+            r.splats,
+            r.arm_instructions
+                .map(|n| n.to_string())
+                .unwrap_or_default(),
+            r.reference
+        );
+    }
+    out
+}
+
+/// The columns of `results.csv`.
+pub const CSV_HEADER: &str = "scene,view,method,detail,kernel,shadows,cutoff_px,psnr_db,\
+     coverage_mismatch,holes,ms,wall_ms,nodes_visited,splats,arm_instructions,reference";
+
+/// The machine's load when the report was made (Linux), for reading the times.
+fn load_note() -> String {
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    match std::fs::read_to_string("/proc/loadavg") {
+        Ok(l) => format!(
+            "{cores} cores, load average {} at the end of the run",
+            l.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+        ),
+        Err(_) => format!("{cores} cores"),
+    }
+}
+
+/// `results.md`.
+fn markdown(
+    subject: &Subject<'_>,
+    sweep: &Sweep,
+    rows: &[Row],
+    overall: &[Point],
+    command: &str,
+) -> String {
+    let mut md = format!("# Error against run time: {}\n\n", subject.name);
+    let _ = writeln!(
+        md,
+        "Made by `{command}`. Every frame is 240 × 320 and compared with the f64 reference \
+         renderer of the original mesh: PSNR over 8-bit RGB, coverage mismatch (pixels covered \
+         by one image only) and holes (covered by the reference only). Time is the host's \
+         CPU time of the rendering thread for setup + traversal + raster, the median of {} \
+         repeat{} ({}; wall times are in `results.csv`); nodes are the cells visited (points \
+         processed, for the brute force).\n",
+        sweep.repeats,
+        if sweep.repeats == 1 { "" } else { "s" },
+        load_note()
+    );
+    md.push_str("| method | what |\n|---|---|\n");
+    let mut seen = Vec::new();
+    for r in rows {
+        if !seen.contains(&&r.method) {
+            seen.push(&r.method);
+            let _ = writeln!(md, "| {} | {} |", r.method, r.detail);
+        }
+    }
+    let shadow_ref = rows
+        .iter()
+        .find(|r| r.shadows != "off")
+        .map(|r| r.reference.as_str());
+    md.push('\n');
+    match shadow_ref {
+        Some("unshadowed") => md.push_str(
+            "Shadowed frames are compared with the **unshadowed** reference (the reference \
+             renderer does not cast shadow rays in this build), so their PSNR also counts the \
+             shadows themselves as error.\n",
+        ),
+        Some(r) => {
+            let _ = writeln!(md, "Shadowed frames are compared with the {r} reference.");
+        }
+        None => {}
+    }
+    let _ = writeln!(md, "ARM instructions per frame: {ARM_NOT_MEASURED}.\n");
+    md.push_str(
+        "## Best PSNR within a time budget\n\nMean over the views, shadows off: for each method \
+         the best mean PSNR among its configurations (cutoff, kernel) whose mean time fits the \
+         budget; 〃 is the same frame as in the smaller budget.\n\n",
+    );
+    md.push_str(&budget_table(overall));
+    md.push_str("\n![PSNR against time, mean over views](psnr-vs-ms.png)\n");
+    for (view, _) in &subject.views {
+        let _ = writeln!(md, "\n## View `{view}`\n");
+        let points: Vec<Point> = rows
+            .iter()
+            .filter(|r| &r.view == view && r.shadows == "off")
+            .map(Point::of)
+            .collect();
+        md.push_str(&budget_table(&points));
+        let _ = writeln!(
+            md,
+            "\n![PSNR against time, view {view}](psnr-vs-ms-{view}.png)\n"
+        );
+        md.push_str(
+            "| method | kernel | shadows | cutoff px | PSNR dB | coverage mismatch | holes | \
+             ms/frame | nodes | splats | ARM instructions |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|\n",
+        );
+        for r in rows.iter().filter(|r| &r.view == view) {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {:.2} | {:.2}% | {:.3}% | {:.2} | {} | {} | {} |",
+                r.method,
+                r.kernel,
+                r.shadows,
+                r.cutoff_px.map_or("—".to_owned(), |c| c.to_string()),
+                r.psnr_db,
+                100.0 * r.coverage_mismatch,
+                100.0 * r.holes,
+                r.ms,
+                r.nodes_visited,
+                r.splats,
+                r.arm_instructions
+                    .map_or("not measured".to_owned(), |n| n.to_string()),
+            );
+        }
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_octree_nearest_a_depth_6_trigrid_is_depth_9() {
+        // 3⁶ = 729 cells: 2⁹ = 512 is 217 away, 2¹⁰ = 1024 is 295.
+        assert_eq!(octree_depth_near(3, 6), 9);
+        assert_eq!(octree_depth_near(3, 4), 6); // 81: 64 vs 128
+        assert_eq!(octree_depth_near(2, 7), 7);
+    }
+
+    fn point(method: &str, ms: f64, psnr_db: f64) -> Point {
+        Point {
+            method: method.into(),
+            kernel: "square".into(),
+            cutoff_px: Some(1.0),
+            ms,
+            psnr_db,
+        }
+    }
+
+    #[test]
+    fn a_budget_takes_the_best_frame_that_fits() {
+        let pts = [
+            point("trigrid", 0.8, 20.0),
+            point("trigrid", 3.0, 25.0),
+            point("trigrid", 4.0, 24.0),
+            point("brute", 30.0, 26.0),
+            point("brute", 60.0, 26.0),
+        ];
+        let t = budget_table(&pts);
+        let line = |m: &str| {
+            t.lines()
+                .find(|l| l.starts_with(&format!("| {m} |")))
+                .unwrap()
+                .to_owned()
+        };
+        let tg_line = line("trigrid");
+        let tg: Vec<&str> = tg_line.split('|').map(str::trim).collect();
+        // Columns: "", method, ≤0.5, ≤1, ≤2, ≤5, ...
+        assert_eq!(tg[2], "—");
+        assert!(tg[3].starts_with("**20.00** dB"), "{tg:?}");
+        assert!(tg[5].starts_with("**25.00** dB"), "{tg:?}");
+        assert_eq!(tg[6], "〃", "{tg:?}");
+        let brute_line = line("brute");
+        let brute: Vec<&str> = brute_line.split('|').map(str::trim).collect();
+        assert_eq!(brute[6], "—");
+        assert!(brute[8].starts_with("**26.00** dB"), "{brute:?}");
+        // An equal PSNR later is not better.
+        assert_eq!(brute[10], "〃", "{brute:?}");
+    }
+
+    #[test]
+    fn csv_rows_have_as_many_fields_as_the_header() {
+        let row = Row {
+            scene: "s".into(),
+            view: "std".into(),
+            method: "brute".into(),
+            detail: "every leaf, 12 points".into(),
+            kernel: "round".into(),
+            shadows: "off".into(),
+            cutoff_px: None,
+            psnr_db: 30.0,
+            coverage_mismatch: 0.01,
+            holes: 0.0,
+            ms: 1.5,
+            wall_ms: 1.6,
+            nodes_visited: 12,
+            splats: 10,
+            arm_instructions: None,
+            reference: "-".into(),
+        };
+        let text = csv(&[row]);
+        let mut lines = text.lines();
+        let header = lines.next().unwrap().split(',').count();
+        let line = lines.next().unwrap();
+        // The quoted detail holds one comma.
+        assert_eq!(line.split(',').count(), header + 1, "{line}");
+    }
+}
