@@ -191,6 +191,14 @@ pub fn bake_grid(
         let c = 0.5 * (lo[a] + hi[a]);
         origin[a] = f64::from(next_down_f32((c - 0.5 * side) as f32));
     }
+    // Rounding the corner down may leave the far faces short of the box. Grow the side to the
+    // smallest f32 that reaches them, in one step: stepping one f32 at a time takes billions of steps
+    // for a small mesh far from the origin (the corner's rounding is then much larger than the side).
+    let reach = (0..3).map(|a| hi[a] - origin[a]).fold(side, f64::max);
+    if reach > side {
+        let s = reach as f32;
+        side = f64::from(if f64::from(s) < reach { s.next_up() } else { s });
+    }
     while (0..3).any(|a| origin[a] + side < hi[a]) {
         side = f64::from(next_up_f32(side as f32));
     }

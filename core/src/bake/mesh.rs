@@ -32,6 +32,12 @@ pub enum MeshError {
         /// Index of the vertex.
         vertex: usize,
     },
+    /// A vertex coordinate is beyond ±[`MAX_COORDINATE`]: the root cube around the mesh could not be
+    /// stored (`.tg` files keep it as `f32`).
+    TooLarge {
+        /// Index of the vertex.
+        vertex: usize,
+    },
     /// A triangle refers to a vertex that does not exist.
     IndexOutOfRange {
         /// Index of the triangle (face).
@@ -74,6 +80,10 @@ impl core::fmt::Display for MeshError {
             MeshError::NonFinite { vertex } => {
                 write!(f, "vertex {vertex} has a NaN or infinite coordinate")
             }
+            MeshError::TooLarge { vertex } => write!(
+                f,
+                "vertex {vertex} has a coordinate beyond ±{MAX_COORDINATE:e}, too large to bake"
+            ),
             MeshError::IndexOutOfRange {
                 face,
                 index,
@@ -95,11 +105,16 @@ impl core::fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {}
 
+/// Largest coordinate magnitude a mesh may have: the root cube around it (twice as wide at most)
+/// must fit in an `f32`, whose largest value is about 3.4e38.
+pub const MAX_COORDINATE: f64 = 1e38;
+
 /// Largest material index plus one that a `.tg` file can carry (3 material bits).
 pub const MAX_MATERIALS: u8 = 8;
 
 impl TriMesh {
-    /// Checks the mesh once: finite coordinates, indices in range, attribute counts, some area.
+    /// Checks the mesh once: finite coordinates within ±[`MAX_COORDINATE`], indices in range,
+    /// attribute counts, some area.
     ///
     /// # Errors
     /// The first problem found, naming the vertex or face.
@@ -116,6 +131,13 @@ impl TriMesh {
             .position(|p| p.iter().any(|c| !c.is_finite()))
         {
             return Err(MeshError::NonFinite { vertex });
+        }
+        if let Some(vertex) = self
+            .positions
+            .iter()
+            .position(|p| p.iter().any(|c| c.abs() > MAX_COORDINATE))
+        {
+            return Err(MeshError::TooLarge { vertex });
         }
         let n = self.positions.len();
         for (face, t) in self.triangles.iter().enumerate() {

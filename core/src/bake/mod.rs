@@ -11,4 +11,4 @@ mod grid;
 mod mesh;
 
 pub use grid::{bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel};
-pub use mesh::{MeshError, TriMesh, MAX_MATERIALS};
+pub use mesh::{MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};

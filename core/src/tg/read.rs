@@ -29,8 +29,9 @@ pub enum TgError {
     UnsupportedMaterialBits(u8),
     /// `block_log2` outside 9..=16.
     UnsupportedBlockSize(u8),
-    /// A root cube or bounding box number is not finite, the side is not positive, or a bounding box
-    /// minimum exceeds its maximum.
+    /// A root cube or bounding box number is not finite, the side is not positive, a corner
+    /// coordinate is more than [`MAX_CORNER_SIDES`] sides from 0, a bounding box minimum exceeds its
+    /// maximum, or the bounding box leaves the root cube.
     BadRootCube {
         /// Byte offset of the offending `f32` in the header (16..=28 root cube, 48..=68 bounds).
         offset: u8,
@@ -111,7 +112,8 @@ impl core::fmt::Display for TgError {
             TgError::BadRootCube { offset } => write!(
                 f,
                 "header field at byte {offset} ({}): the root cube or bounding box is not finite, \
-                 has no size or is inverted",
+                 has no size, is inverted, or lies outside the cube, or the cube is lost in its \
+                 corner's rounding",
                 match offset {
                     16..=27 => "root cube corner",
                     28..=31 => "root cube side",
@@ -157,6 +159,9 @@ impl core::fmt::Display for TgError {
         }
     }
 }
+
+/// Largest `|corner coordinate| / side` of a root cube (2^32).
+pub const MAX_CORNER_SIDES: f64 = 4_294_967_296.0;
 
 // ---- raw layer: bounds-checked little-endian reads -------------------------------------------------
 
@@ -383,6 +388,26 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         return Err(TgError::BadRootCube {
             offset: (BOUNDS_OFFSET + 4 * a) as u8,
         });
+    }
+    // The corner must be precise to well within the side: per-frame setup works with differences of
+    // corner coordinates (a cube lost in its corner's rounding would have no extent). Bakes stay
+    // below 2^25, as f32 rounding of the corner sets the side's floor.
+    let side_f64 = f64::from(side);
+    if let Some(a) = (0..3).find(|&a| f64::from(origin[a]).abs() > MAX_CORNER_SIDES * side_f64) {
+        return Err(TgError::BadRootCube {
+            offset: (16 + 4 * a) as u8,
+        });
+    }
+    // The bounding box lies in the root cube, as the writer makes it.
+    for a in 0..3 {
+        let (lo, hi) = (f64::from(origin[a]), f64::from(origin[a]) + side_f64);
+        for (k, v) in [(0, bounds[0][a]), (1, bounds[1][a])] {
+            if !(lo..=hi).contains(&f64::from(v)) {
+                return Err(TgError::BadRootCube {
+                    offset: (BOUNDS_OFFSET + 12 * k + 4 * a) as u8,
+                });
+            }
+        }
     }
     let blocks = u32_at(block, 32).ok_or(short)?;
     let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
