@@ -84,7 +84,8 @@ pub struct ShadingTable<const MATERIALS: usize> {
     ambient: [u16; MATERIALS],
     pow_q16: [[u16; POW_STEPS + 1]; MATERIALS],
     pow_key: [Option<f32>; MATERIALS],
-    key: Option<([f64; 3], [f64; 3], [Material; MATERIALS])>,
+    /// Per slot: the light, viewer and material it was built for.
+    key: [Option<(Vec3, Vec3, Material)>; MATERIALS],
     rebuilds: u32,
 }
 
@@ -110,7 +111,7 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
             ambient: [0; MATERIALS],
             pow_q16: [[0; POW_STEPS + 1]; MATERIALS],
             pow_key: [None; MATERIALS],
-            key: None,
+            key: [None; MATERIALS],
             rebuilds: 0,
         }
     }
@@ -119,49 +120,68 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
     /// in the model's frame). Does nothing when they are what the table was built for. Returns
     /// whether it rebuilt.
     pub fn update(&mut self, materials: &[Material; MATERIALS], l: Vec3, v: Vec3) -> bool {
-        let key = (l, v, *materials);
-        if self.key == Some(key) {
-            return false;
+        self.update_slots(materials, &[(l, v); MATERIALS])
+    }
+
+    /// [`ShadingTable::update`] with light and viewer directions of their own per slot: a scene
+    /// (`crate::scene`) gives each object's materials slots shaded in that object's model frame,
+    /// since normal codes are stored in the model frame and objects may be rotated. Only the slots
+    /// whose material or directions changed are recomputed. Returns whether any was.
+    pub fn update_slots(
+        &mut self,
+        materials: &[Material; MATERIALS],
+        dirs: &[(Vec3, Vec3); MATERIALS],
+    ) -> bool {
+        let mut changed = false;
+        for (k, (m, &(l, v))) in materials.iter().zip(dirs.iter()).enumerate() {
+            if self.key[k] != Some((l, v, *m)) {
+                self.build_slot(k, m, l, v);
+                self.key[k] = Some((l, v, *m));
+                changed = true;
+            }
         }
+        if changed {
+            self.rebuilds += 1;
+        }
+        changed
+    }
+
+    /// Recomputes slot `k`'s colours for material `m`, light `l` and viewer `v`.
+    fn build_slot(&mut self, k: usize, m: &Material, l: Vec3, v: Vec3) {
         let lq = q14(l);
         let hq = q14(camera::normalize(camera::add(l, v)));
-        for (k, m) in materials.iter().enumerate() {
-            if self.pow_key[k] != Some(m.shininess) {
-                for (i, p) in self.pow_q16[k].iter_mut().enumerate() {
-                    let x = i as f32 / POW_STEPS as f32;
-                    *p = libm::roundf(libm::powf(x, m.shininess) * 65535.0) as u16;
-                }
-                self.pow_key[k] = Some(m.shininess);
+        if self.pow_key[k] != Some(m.shininess) {
+            for (i, p) in self.pow_q16[k].iter_mut().enumerate() {
+                let x = i as f32 / POW_STEPS as f32;
+                *p = libm::roundf(libm::powf(x, m.shininess) * 65535.0) as u16;
             }
-            let (amb, dif, spc) = (q16(m.ambient), q16(m.diffuse), q16(m.specular));
-            let base = m.color.map(q16);
-            let shade = |c: i32, max: i32| {
-                (((i64::from(c) * i64::from(amb)) >> 16).clamp(0, 65535) as i32 * max + 32768) >> 16
-            };
-            self.ambient[k] =
-                (shade(base[0], 31) << 11 | shade(base[1], 63) << 5 | shade(base[2], 31)) as u16;
-            let pow = &self.pow_q16[k];
-            for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
-                let n = n.map(i32::from);
-                let ndl = (n[0] * lq[0] + n[1] * lq[1] + n[2] * lq[2]) >> 14;
-                let light = amb + ((dif * ndl.max(0)) >> 14);
-                let spec = if ndl > 0 {
-                    let ndh = ((n[0] * hq[0] + n[1] * hq[1] + n[2] * hq[2]) >> 14).clamp(0, 16384);
-                    (spc * i32::from(pow[(ndh >> 4) as usize])) >> 16
-                } else {
-                    0
-                };
-                // Channel in Q16, rounded to 5 or 6 bits.
-                let ch = |c: i32, max: i32| {
-                    let lit = ((i64::from(c) * i64::from(light)) >> 16) as i32;
-                    ((lit + spec).clamp(0, 65535) * max + 32768) >> 16
-                };
-                *out = (ch(base[0], 31) << 11 | ch(base[1], 63) << 5 | ch(base[2], 31)) as u16;
-            }
+            self.pow_key[k] = Some(m.shininess);
         }
-        self.key = Some(key);
-        self.rebuilds += 1;
-        true
+        let (amb, dif, spc) = (q16(m.ambient), q16(m.diffuse), q16(m.specular));
+        let base = m.color.map(q16);
+        let shade = |c: i32, max: i32| {
+            (((i64::from(c) * i64::from(amb)) >> 16).clamp(0, 65535) as i32 * max + 32768) >> 16
+        };
+        self.ambient[k] =
+            (shade(base[0], 31) << 11 | shade(base[1], 63) << 5 | shade(base[2], 31)) as u16;
+        let pow = &self.pow_q16[k];
+        for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
+            let n = n.map(i32::from);
+            let ndl = (n[0] * lq[0] + n[1] * lq[1] + n[2] * lq[2]) >> 14;
+            let light = amb + ((dif * ndl.max(0)) >> 14);
+            let spec = if ndl > 0 {
+                let ndh = ((n[0] * hq[0] + n[1] * hq[1] + n[2] * hq[2]) >> 14).clamp(0, 16384);
+                (spc * i32::from(pow[(ndh >> 4) as usize])) >> 16
+            } else {
+                0
+            };
+            // Channel in Q16, rounded to 5 or 6 bits.
+            let ch = |c: i32, max: i32| {
+                let lit = ((i64::from(c) * i64::from(light)) >> 16) as i32;
+                ((lit + spec).clamp(0, 65535) * max + 32768) >> 16
+            };
+            *out = (ch(base[0], 31) << 11 | ch(base[1], 63) << 5 | ch(base[2], 31)) as u16;
+        }
     }
 
     /// The RGB565 colour of an attribute (`normal code | material << 13`). Materials beyond the

@@ -66,6 +66,43 @@ pub fn coverage_mismatch(a: &[bool], b: &[bool]) -> f64 {
     differ as f64 / a.len() as f64
 }
 
+/// The fraction (0..=1) of the pixels covered in both images whose lit/shadowed classification
+/// differs: `a_shadowed[i] != b_shadowed[i]` over the `i` with `a_covered[i] && b_covered[i]`.
+/// No pixel covered in both gives 0.
+///
+/// The classifications are "unlit" masks: [`crate::reference::RefImage::shadowed`] for the
+/// reference, [`crate::render::Classified::shadowed`] for the device renderer.
+///
+/// # Panics
+/// When the four masks do not have the same length.
+pub fn shadow_disagreement(
+    a_covered: &[bool],
+    a_shadowed: &[bool],
+    b_covered: &[bool],
+    b_shadowed: &[bool],
+) -> f64 {
+    let n = a_covered.len();
+    assert!(
+        a_shadowed.len() == n && b_covered.len() == n && b_shadowed.len() == n,
+        "shadow_disagreement: masks of different sizes ({n}, {}, {}, {} pixels)",
+        a_shadowed.len(),
+        b_covered.len(),
+        b_shadowed.len()
+    );
+    let (mut both, mut differ) = (0usize, 0usize);
+    for i in 0..n {
+        if a_covered[i] && b_covered[i] {
+            both += 1;
+            differ += usize::from(a_shadowed[i] != b_shadowed[i]);
+        }
+    }
+    if both == 0 {
+        0.0
+    } else {
+        differ as f64 / both as f64
+    }
+}
+
 /// Where two frames differ: the first differing pixel in row order and how many pixels differ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FrameDiff<T> {

@@ -14,7 +14,17 @@
 //!   renormalised, and shaded with [`shade::phong`] with the viewer at `−camera.forward`. Both sides
 //!   of a triangle are drawn and the interpolated normal is used as it is (no flip towards the eye);
 //! - vertex colours, when the mesh has them, are interpolated the same way and replace the
-//!   material's base colour.
+//!   material's base colour;
+//! - with [`ShadowRays`] ([`render_reference_shadowed`]), each visible sample casts an exact shadow
+//!   ray against every triangle of the mesh (through a [`Bvh`]) towards a directional light or a
+//!   point light; a blocked sample is shaded with its material's ambient term only, as the device
+//!   shades a shadowed splat. The ray starts on the triangle, moved off its plane by 10⁻⁷ bounding
+//!   radii towards the light's side, so a surface never shadows itself through rounding.
+//!
+//! Each pixel is also classified lit or unlit ([`RefImage::shadowed`]): unlit when the interpolated
+//! normal faces away from the light (`n·l ≤ 0`, an attached shadow) or, when rays are cast, the ray
+//! is blocked (a cast shadow). The device renderer's classification is compared with it by
+//! [`crate::metrics::shadow_disagreement`].
 //!
 //! Work is split into setup (per vertex, then per triangle, in parallel) and raster (per band of
 //! rows, in parallel); the result does not depend on the number of threads.
@@ -38,9 +48,11 @@
 //! ```
 
 use pocketsplat_core::bake::TriMesh;
-use pocketsplat_core::camera::{self, Camera, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::camera::{self, Camera, Sphere, Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::shade::{self, Material, DEFAULT_MATERIAL};
 use rayon::prelude::*;
+
+use crate::bvh::Bvh;
 
 /// Rows per raster band (the unit of parallel work).
 const BAND_ROWS: usize = 8;
@@ -55,6 +67,9 @@ pub struct RefImage {
     /// Camera-space depth (distance along `camera.forward`, model units) at the pixel centre;
     /// `f64::INFINITY` where nothing is drawn.
     pub depth: Vec<f64>,
+    /// Covered and unlit: the normal faces away from the light, or (with shadow rays) the ray to the
+    /// light is blocked.
+    pub shadowed: Vec<bool>,
 }
 
 impl RefImage {
@@ -64,6 +79,7 @@ impl RefImage {
             rgb: vec![[0.0; 3]; WIDTH * HEIGHT],
             covered: vec![false; WIDTH * HEIGHT],
             depth: vec![f64::INFINITY; WIDTH * HEIGHT],
+            shadowed: vec![false; WIDTH * HEIGHT],
         }
     }
 
@@ -81,6 +97,29 @@ impl RefImage {
     pub fn covered_count(&self) -> usize {
         self.covered.iter().filter(|&&c| c).count()
     }
+
+    /// Number of covered pixels that are unlit.
+    pub fn shadowed_count(&self) -> usize {
+        self.shadowed.iter().filter(|&&c| c).count()
+    }
+}
+
+/// Where shadow rays go, in model coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShadowLight {
+    /// A directional light: rays towards this direction (need not be unit), unbounded.
+    Directional(Vec3),
+    /// A point light at this position: rays end there.
+    Point(Vec3),
+}
+
+/// Exact shadow rays: the mesh's hierarchy (built once, [`Bvh::new`]) and the light they go to.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowRays<'a> {
+    /// The hierarchy over the same mesh that is rendered.
+    pub bvh: &'a Bvh,
+    /// Where the rays go.
+    pub light: ShadowLight,
 }
 
 /// A linear 0..=1 colour as 8-bit RGB: `round(255 · c)` per channel, clamped to 0..=255.
@@ -134,6 +173,23 @@ pub fn render_reference(
     materials: &[Material],
     light_dir: Vec3,
 ) -> RefImage {
+    render_reference_shadowed(mesh, camera, materials, light_dir, None)
+}
+
+/// [`render_reference`] with exact shadows when `shadows` is given: every visible sample whose ray
+/// to the light meets a triangle is shaded with its material's ambient term only and marked in
+/// [`RefImage::shadowed`]. `light_dir` is still the shading direction (for a point light, the
+/// direction from the model to the light, as on the device).
+///
+/// # Panics
+/// As [`render_reference`].
+pub fn render_reference_shadowed(
+    mesh: &TriMesh,
+    camera: &Camera,
+    materials: &[Material],
+    light_dir: Vec3,
+    shadows: Option<&ShadowRays<'_>>,
+) -> RefImage {
     let normals = vertex_normals(mesh);
     let colors: Option<Vec<Vec3>> = mesh.colors.as_ref().map(|cols| {
         cols.iter()
@@ -178,6 +234,9 @@ pub fn render_reference(
         },
         l,
         v,
+        camera,
+        shadows: shadows.copied(),
+        offset: 1e-7 * Sphere::from_bounds(mesh.bounds_f32()).radius,
     };
     let band_images: Vec<RefImage> = bins
         .par_iter()
@@ -189,11 +248,13 @@ pub fn render_reference(
         rgb: Vec::with_capacity(WIDTH * HEIGHT),
         covered: Vec::with_capacity(WIDTH * HEIGHT),
         depth: Vec::with_capacity(WIDTH * HEIGHT),
+        shadowed: Vec::with_capacity(WIDTH * HEIGHT),
     };
     for band in band_images {
         out.rgb.extend(band.rgb);
         out.covered.extend(band.covered);
         out.depth.extend(band.depth);
+        out.shadowed.extend(band.shadowed);
     }
     out
 }
@@ -214,8 +275,8 @@ struct ClipVertex {
 struct Prim {
     /// Screen positions (pixels, y down), ordered so that [`edge`] is ≥ 0 inside.
     screen: [[f64; 2]; 3],
-    /// Camera-space depths (≥ `camera.near`).
-    z: [f64; 3],
+    /// Camera-space positions (z ≥ `camera.near`).
+    cam: [Vec3; 3],
     /// Vertex normals (not normalised).
     normal: [Vec3; 3],
     /// Vertex colours (linear), or `None` to use the material's colour.
@@ -321,7 +382,7 @@ impl Setup<'_> {
         let v = order.map(|k| v[k]);
         Some(Prim {
             screen,
-            z: v.map(|v| v.cam[2]),
+            cam: v.map(|v| v.cam),
             normal: v.map(|v| v.normal),
             color: has_color.then(|| v.map(|v| v.color)),
             face,
@@ -379,11 +440,15 @@ fn top_left(a: [f64; 2], b: [f64; 2]) -> bool {
     (dy == 0.0 && dx > 0.0) || dy < 0.0
 }
 
-/// Materials, light and viewer of a frame.
+/// Materials, light, viewer and shadow rays of a frame.
 struct Shading<'a> {
     materials: &'a [Material],
     l: Vec3,
     v: Vec3,
+    camera: &'a Camera,
+    shadows: Option<ShadowRays<'a>>,
+    /// How far a ray's origin is moved off its triangle, model units.
+    offset: f64,
 }
 
 /// Rasterizes the primitives of one band (rows `y0 ..`), then shades the visible samples.
@@ -409,7 +474,7 @@ fn raster_band(y0: usize, prims: &[Prim], bin: &[u32], shading: &Shading<'_>) ->
                 }
                 // 1/z is affine on the screen: weights b_i / z_i, normalised, are the
                 // perspective-correct barycentrics, and their sum's inverse is the depth.
-                let w = [e[0] / p.z[0], e[1] / p.z[1], e[2] / p.z[2]];
+                let w = [e[0] / p.cam[0][2], e[1] / p.cam[1][2], e[2] / p.cam[2][2]];
                 let s = w[0] + w[1] + w[2];
                 let z = (e[0] + e[1] + e[2]) / s;
                 let i = (y - y0) * WIDTH + x;
@@ -421,15 +486,17 @@ fn raster_band(y0: usize, prims: &[Prim], bin: &[u32], shading: &Shading<'_>) ->
         }
     }
     let mut rgb = vec![[0.0; 3]; n];
-    for (c, w) in rgb.iter_mut().zip(&winner) {
+    let mut shadowed = vec![false; n];
+    for ((c, sh), w) in rgb.iter_mut().zip(&mut shadowed).zip(&winner) {
         if let Some((k, w)) = *w {
-            *c = shade_sample(&prims[k as usize], w, shading);
+            (*c, *sh) = shade_sample(&prims[k as usize], w, shading);
         }
     }
     RefImage {
         rgb,
         covered: winner.iter().map(Option::is_some).collect(),
         depth,
+        shadowed,
     }
 }
 
@@ -437,8 +504,9 @@ fn interpolate(a: &[Vec3; 3], w: [f64; 3]) -> Vec3 {
     std::array::from_fn(|c| w[0] * a[0][c] + w[1] * a[1][c] + w[2] * a[2][c])
 }
 
-/// The Phong colour of a primitive at perspective-correct barycentrics `w`.
-fn shade_sample(p: &Prim, w: [f64; 3], s: &Shading<'_>) -> [f64; 3] {
+/// The Phong colour of a primitive at perspective-correct barycentrics `w`, and whether the sample
+/// is unlit (facing away from the light, or its shadow ray blocked).
+fn shade_sample(p: &Prim, w: [f64; 3], s: &Shading<'_>) -> ([f64; 3], bool) {
     let mut n = interpolate(&p.normal, w);
     if camera::dot(n, n) == 0.0 {
         n = p.face;
@@ -448,5 +516,41 @@ fn shade_sample(p: &Prim, w: [f64; 3], s: &Shading<'_>) -> [f64; 3] {
     if let Some(c) = &p.color {
         m.color = interpolate(c, w).map(|v| v as f32);
     }
-    shade::phong(&m, n, s.l, s.v)
+    let facing_away = camera::dot(n, s.l) <= 0.0;
+    if !facing_away && s.shadows.is_some_and(|rays| blocked(p, w, s, &rays)) {
+        m.diffuse = 0.0;
+        m.specular = 0.0;
+        return (shade::phong(&m, n, s.l, s.v), true);
+    }
+    (shade::phong(&m, n, s.l, s.v), facing_away)
+}
+
+/// Whether the ray from the sample at barycentrics `w` of `p` to the light meets the mesh.
+fn blocked(p: &Prim, w: [f64; 3], s: &Shading<'_>, rays: &ShadowRays<'_>) -> bool {
+    let c = interpolate(&p.cam, w);
+    let cam = s.camera;
+    let point = camera::add(
+        camera::add(cam.eye, camera::scale(cam.right, c[0])),
+        camera::add(
+            camera::scale(cam.up, c[1]),
+            camera::scale(cam.forward, c[2]),
+        ),
+    );
+    let towards = |q: Vec3| match rays.light {
+        ShadowLight::Directional(d) => d,
+        ShadowLight::Point(at) => camera::sub(at, q),
+    };
+    // Off the triangle's plane, on the light's side of it.
+    let face = camera::normalize(p.face);
+    let side = if camera::dot(face, towards(point)) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    let origin = camera::add(point, camera::scale(face, side * s.offset));
+    let (dir, t_max) = match rays.light {
+        ShadowLight::Directional(d) => (d, f64::INFINITY),
+        ShadowLight::Point(at) => (camera::sub(at, origin), 1.0),
+    };
+    rays.bvh.occluded(origin, dir, 0.0, t_max)
 }

@@ -3,11 +3,14 @@
 use std::time::{Duration, Instant};
 
 use pocketsplat_core::camera::{self, Camera, Placement, Sphere, View, DEFAULT_FOV_DEG};
+use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
+use pocketsplat_core::raster::Splat;
 use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 pub use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
-use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
+use pocketsplat_core::tg::read::Header;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid};
 
 /// Width and height of every frame.
@@ -86,8 +89,11 @@ pub struct Settings {
     pub cutoff_px: f32,
     /// Splat kernel.
     pub kernel: Kernel,
-    /// Light azimuth and elevation, degrees.
+    /// Light azimuth and elevation, degrees (a directional light; ignored with `light_pos`).
     pub light_az_el: (f64, f64),
+    /// A point light instead: its position in bounding-sphere radii from the sphere's centre (the
+    /// views' unit). Shadows from it are two-pass; shading uses the direction from the centre.
+    pub light_pos: Option<[f64; 3]>,
     /// Material of every sample.
     pub material: Material,
     /// Shadow algorithm.
@@ -104,6 +110,7 @@ impl Default for Settings {
             cutoff_px: 1.0,
             kernel: Kernel::Square,
             light_az_el: DEFAULT_LIGHT_AZ_EL,
+            light_pos: None,
             material: DEFAULT_MATERIAL,
             shadows: ShadowMode::Off,
             shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
@@ -116,10 +123,64 @@ impl Settings {
     pub fn camera(&self, bounds: [[f32; 3]; 2]) -> Camera {
         Camera::orbit(Sphere::from_bounds(bounds), self.view, self.fov_deg)
     }
-    /// Unit direction to the light.
+    /// Unit direction to the light (for a point light, from the bounding-sphere centre).
     pub fn light_dir(&self) -> [f64; 3] {
-        camera::direction(self.light_az_el.0, self.light_az_el.1)
+        match self.light_pos {
+            Some(p) => camera::normalize(p),
+            None => camera::direction(self.light_az_el.0, self.light_az_el.1),
+        }
     }
+    /// The point light's position in model units, for a model with this bounding box.
+    pub fn light_position(&self, bounds: [[f32; 3]; 2]) -> Option<[f64; 3]> {
+        let s = Sphere::from_bounds(bounds);
+        self.light_pos
+            .map(|p| camera::add(s.center, camera::scale(p, s.radius)))
+    }
+}
+
+/// The light's tables for a grid (shadows on).
+///
+/// # Errors
+/// One-pass shadows with a point light, or a point light inside the sphere around the grid's root
+/// cube.
+pub fn light_frame(header: &Header, settings: &Settings) -> anyhow::Result<LightFrame> {
+    let n = settings.shadow_map_size;
+    match settings.light_position(header.bounds) {
+        None => Ok(LightFrame::new(
+            header,
+            &Placement::IDENTITY,
+            settings.light_dir(),
+            n,
+        )),
+        Some(_) if settings.shadows == ShadowMode::OnePass => anyhow::bail!(
+            "one-pass shadows need a directional light (Duguet §5.3); use --shadows two-pass \
+             with --light-pos"
+        ),
+        Some(at) => LightFrame::point(header, &Placement::IDENTITY, at, n).map_err(|e| {
+            let p = settings.light_pos.unwrap_or_default();
+            anyhow::anyhow!("--light-pos {},{},{}: {e}", p[0], p[1], p[2])
+        }),
+    }
+}
+
+/// Draws a set-up frame into `sink`, with the shadows `settings` ask for (the map in `shadow`,
+/// grown on first use).
+fn draw<S: SplatSink>(
+    grid: &TriGrid<'_>,
+    settings: &Settings,
+    frame: &TgFrame,
+    shadow: &mut Vec<u16>,
+    sink: &mut S,
+) -> anyhow::Result<Stats> {
+    Ok(if settings.shadows == ShadowMode::Off {
+        render_tg(grid, frame, sink)
+    } else {
+        let light = light_frame(grid.header(), settings)?;
+        let n = settings.shadow_map_size;
+        shadow.resize(n * n, u16::MAX);
+        let mut map = ShadowMap::new(shadow, n);
+        render_tg_shadowed(grid, frame, &light, &mut map, settings.shadows, sink)
+    })
 }
 
 /// Statistics of a rendered frame.
@@ -195,19 +256,97 @@ pub fn render_tg_from(
         table,
         kernel: settings.kernel,
     };
-    let stats = if settings.shadows == ShadowMode::Off {
-        render_tg(grid, &frame, &mut sink)
-    } else {
-        let n = settings.shadow_map_size;
-        out.shadow.resize(n * n, u16::MAX);
-        let light = LightFrame::new(grid.header(), &Placement::IDENTITY, settings.light_dir(), n);
-        let mut map = ShadowMap::new(&mut out.shadow, n);
-        render_tg_shadowed(grid, &frame, &light, &mut map, settings.shadows, &mut sink)
-    };
+    let stats = draw(grid, settings, &frame, &mut out.shadow, &mut sink)?;
     let report = FrameReport {
         stats,
         time: t.elapsed(),
     };
     overlay(&mut fb, &report);
     Ok(report)
+}
+
+/// A frame with each pixel's lit/shadowed classification, for comparison with the reference
+/// renderer's ([`crate::metrics::shadow_disagreement`]).
+pub struct Classified {
+    /// What the frame did.
+    pub report: FrameReport,
+    /// Whether each pixel was drawn.
+    pub covered: Vec<bool>,
+    /// Whether each pixel's splat is unlit: drawn in shadow, or with a normal facing away from the
+    /// light (`n·l ≤ 0` in Q14, the shadow test's own criterion), so that a frame without shadows is
+    /// classified by its attached shadows only.
+    pub shadowed: Vec<bool>,
+}
+
+/// Splats through the shading table into the frame and, into a second framebuffer with the same
+/// depth test, each splat's class (1 lit, 2 unlit): the same splats in the same order give the same
+/// winner per pixel in both.
+struct ClassTee<'f, 'b, 't, 'c, 'd> {
+    shaded: ShadedRaster<'f, 'b, 't, WIDTH, HEIGHT, 1>,
+    class: &'c mut Framebuffer<'d>,
+    to_light_q14: [i32; 3],
+}
+
+impl SplatSink for ClassTee<'_, '_, '_, '_, '_> {
+    fn splat(&mut self, s: &SampleSplat) {
+        self.shaded.splat(s);
+        let n = NORMALS_Q14[usize::from(s.attr) & (NORMAL_COUNT - 1)].map(i32::from);
+        let l = self.to_light_q14;
+        let cos = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) >> 14;
+        let splat = Splat {
+            x_q4: s.x_q4,
+            y_q4: s.y_q4,
+            size_q4: s.size_q4,
+            depth: s.depth,
+            color: if s.shadowed || cos <= 0 { 2 } else { 1 },
+        };
+        self.class.splat(&splat, self.shaded.kernel);
+    }
+}
+
+/// Renders one frame like [`render_tg_frame`] and classifies every pixel lit or unlit (slower: a
+/// second framebuffer; time it with [`render_tg_frame`]).
+///
+/// # Errors
+/// When the frame cannot be set up.
+pub fn render_tg_classified(
+    grid: &TriGrid<'_>,
+    settings: &Settings,
+    out: &mut FrameBuffers,
+) -> anyhow::Result<Classified> {
+    let cam = settings.camera(grid.header().bounds);
+    let opts = RenderOptions {
+        cutoff_px: settings.cutoff_px,
+        kernel: settings.kernel,
+        ..RenderOptions::default()
+    };
+    let t = Instant::now();
+    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, &cam, &opts)?;
+    let mut table = Box::new(ShadingTable::<1>::new());
+    table.update(
+        &[settings.material],
+        settings.light_dir(),
+        camera::scale(cam.forward, -1.0),
+    );
+    let mut class = FrameBuffers::new();
+    let mut class_fb = class.framebuffer();
+    class_fb.clear(0);
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+    fb.clear(0);
+    let mut sink = ClassTee {
+        shaded: ShadedRaster {
+            fb: &mut fb,
+            table: &table,
+            kernel: settings.kernel,
+        },
+        class: &mut class_fb,
+        to_light_q14: settings.light_dir().map(|c| (c * 16384.0).round() as i32),
+    };
+    let stats = draw(grid, settings, &frame, &mut out.shadow, &mut sink)?;
+    let time = t.elapsed();
+    Ok(Classified {
+        report: FrameReport { stats, time },
+        covered: class.pixels().iter().map(|&c| c != 0).collect(),
+        shadowed: class.pixels().iter().map(|&c| c == 2).collect(),
+    })
 }

@@ -99,6 +99,8 @@ pub struct TgFrame {
     /// Depth = `(W − depth_w0) · depth_scale >> 32`.
     pub(crate) depth_w0: i32,
     pub(crate) depth_scale: u64,
+    /// `W` units per world unit of camera depth (setup only: [`TgFrame::share_depth_range`]).
+    w_per_unit: f64,
     /// Bit per normal code: backfacing for every ray of the view.
     pub(crate) backface: [u32; NORMAL_COUNT / 32],
     pub(crate) kernel: Kernel,
@@ -224,11 +226,13 @@ impl TgFrame {
             size_k[level] = (libm::round(kk) as u32, shift);
         }
 
-        // Depth: linear in W from the nearest to the farthest point of the root cube.
-        let w_lo = (root_f[2] - f64::from(ext[0].w)).max(f64::from(near_w));
-        let w_hi = (root_f[2] + f64::from(ext[0].w)).max(w_lo + 1.0);
-        let depth_w0 = to_i32(w_lo);
-        let depth_scale = (65534.0 * 4_294_967_296.0 / (w_hi - w_lo + 1.0)) as u64;
+        // Depth: linear in W from the nearest to the farthest point of the root cube (a scene shares
+        // one range instead: `share_depth_range`).
+        let (depth_w0, depth_scale) = depth_map(
+            root_f[2] - f64::from(ext[0].w),
+            root_f[2] + f64::from(ext[0].w),
+            near_w,
+        );
 
         // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
         // the image corner from the axis plus a 2° margin (splats straddle the border).
@@ -259,6 +263,7 @@ impl TgFrame {
             near_w,
             depth_w0,
             depth_scale,
+            w_per_unit: scale,
             backface,
             kernel: opts.kernel,
         })
@@ -267,5 +272,78 @@ impl TgFrame {
     /// The splat kernel this frame was set up with.
     pub fn kernel(&self) -> Kernel {
         self.kernel
+    }
+
+    /// Maps depth over `range` instead of this grid's own root cube, so that several objects drawn
+    /// into one depth buffer z-test against each other (a scene: `crate::scene`). By default a
+    /// frame spreads the 16-bit depth over its own root cube, so two objects' depths would not be
+    /// comparable. Depths outside the range clamp to its ends.
+    pub fn share_depth_range(&mut self, range: DepthRange) {
+        (self.depth_w0, self.depth_scale) = depth_map(
+            range.near * self.w_per_unit,
+            range.far * self.w_per_unit,
+            self.near_w,
+        );
+    }
+}
+
+/// `(depth_w0, depth_scale)` spreading depths 0..=65534 over `W` in `[w_lo, w_hi]` (`w_lo` at least
+/// the near plane's `W`).
+fn depth_map(w_lo: f64, w_hi: f64, near_w: i32) -> (i32, u64) {
+    let w_lo = if w_lo.is_finite() {
+        w_lo.max(f64::from(near_w))
+    } else {
+        f64::from(near_w)
+    };
+    let w_hi = if w_hi.is_finite() {
+        w_hi.max(w_lo + 1.0)
+    } else {
+        w_lo + 1.0
+    };
+    (
+        to_i32(w_lo),
+        (65534.0 * 4_294_967_296.0 / (w_hi - w_lo + 1.0)) as u64,
+    )
+}
+
+/// An interval of camera depth (distance along the view direction), world units: the depth range a
+/// scene's objects share ([`TgFrame::share_depth_range`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthRange {
+    /// Nearest camera depth.
+    pub near: f64,
+    /// Farthest camera depth.
+    pub far: f64,
+}
+
+impl DepthRange {
+    /// The empty range, the identity of [`DepthRange::union`].
+    pub const EMPTY: DepthRange = DepthRange {
+        near: f64::INFINITY,
+        far: f64::NEG_INFINITY,
+    };
+
+    /// The camera depths of the grid's root cube placed by `placement`: the extremes over its eight
+    /// corners (camera depth is linear, so they bound the whole cube).
+    pub fn of_root_cube(header: &Header, placement: &Placement, camera: &Camera) -> DepthRange {
+        let side = f64::from(header.side);
+        let origin = header.origin.map(f64::from);
+        let mut r = DepthRange::EMPTY;
+        for corner in 0..8 {
+            let p: Vec3 =
+                core::array::from_fn(|k| origin[k] + if corner >> k & 1 != 0 { side } else { 0.0 });
+            let z = camera.to_camera(placement.apply(p))[2];
+            r.near = r.near.min(z);
+            r.far = r.far.max(z);
+        }
+        r
+    }
+
+    /// The smallest range holding both.
+    pub fn union(self, other: DepthRange) -> DepthRange {
+        DepthRange {
+            near: self.near.min(other.near),
+            far: self.far.max(other.far),
+        }
     }
 }

@@ -1,5 +1,7 @@
 //! `pocketsplat render INPUT -o OUT.png`: a `.tg` file through the integer renderer, or a mesh through
-//! the f64 reference renderer, with the same camera, light and material.
+//! the f64 reference renderer, with the same camera, light and material. With `--shadows` other than
+//! `off`, a mesh gets exact shadow rays against its own triangles (the ground truth of both shadow
+//! algorithms).
 
 use std::path::Path;
 use std::time::Instant;
@@ -10,7 +12,9 @@ use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde_json::json;
 
-use crate::render::{render_tg_frame, FrameBuffers, Settings};
+use crate::bvh::Bvh;
+use crate::reference::{ShadowLight, ShadowRays};
+use crate::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 use crate::{image, ply, reference};
 
 /// Parses `A,B` or `A,B,C` numbers (views and lights).
@@ -47,6 +51,30 @@ pub fn parse_view(text: &str) -> Result<View> {
         bail!("--view {text:?}: distance must be positive");
     }
     Ok(View::new(az, el, dist))
+}
+
+/// Parses a point light's position `X,Y,Z` in bounding-sphere radii from the sphere's centre.
+///
+/// # Errors
+/// When it is not three numbers, or it is the centre itself.
+pub fn parse_light_pos(text: &str) -> Result<[f64; 3]> {
+    let p = parse_numbers::<3>("--light-pos", text)?;
+    if p == [0.0; 3] {
+        bail!("--light-pos {text:?}: the light cannot be at the model's centre");
+    }
+    Ok(p)
+}
+
+/// Where the reference renderer's shadow rays go for these settings and a model with these bounds:
+/// `None` without shadows.
+pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<ShadowLight> {
+    if settings.shadows == ShadowMode::Off {
+        return None;
+    }
+    Some(match settings.light_position(bounds) {
+        Some(at) => ShadowLight::Point(at),
+        None => ShadowLight::Directional(settings.light_dir()),
+    })
 }
 
 /// Is this path a `.tg` file (by its magic), rather than a mesh?
@@ -120,8 +148,17 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
         let mesh = ply::load_mesh(input)?;
         let camera = settings.camera(mesh.bounds_f32());
         let t_render = Instant::now();
-        let img =
-            reference::render_reference(&mesh, &camera, &[settings.material], settings.light_dir());
+        let bvh = shadow_light(settings, mesh.bounds_f32()).map(|light| (Bvh::new(&mesh), light));
+        let rays = bvh
+            .as_ref()
+            .map(|(bvh, light)| ShadowRays { bvh, light: *light });
+        let img = reference::render_reference_shadowed(
+            &mesh,
+            &camera,
+            &[settings.material],
+            settings.light_dir(),
+            rays.as_ref(),
+        );
         let ms = t_render.elapsed().as_secs_f64() * 1e3;
         image::write_rgb8_png(out, &img.to_rgb8())?;
         if stats_json {
@@ -131,7 +168,8 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
                 json!({
                     "input": input.display().to_string(), "renderer": "reference",
                     "triangles": mesh.triangles.len(), "nodes_visited": 0, "splats": 0, "max_level": 0,
-                    "covered_pixels": covered, "ms": ms,
+                    "covered_pixels": covered, "shadowed_pixels": img.shadowed_count(),
+                    "shadows": if rays.is_some() { "ray-cast" } else { "off" }, "ms": ms,
                 })
             );
         }

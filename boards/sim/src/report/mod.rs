@@ -2,5 +2,6 @@
 
 pub mod error_vs_time;
 pub mod paper;
+pub mod shadows;
 pub mod stability;
 pub mod views;

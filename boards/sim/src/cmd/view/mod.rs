@@ -145,6 +145,9 @@ pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn Scene + 'a
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         return Ok(Box::new(TgScene::new(grid)));
     }
+    if bytes.starts_with(&pocketsplat_core::scene::MAGIC) {
+        return crate::scene::cmd::open_view_scene(path, bytes);
+    }
     bail!(
         "{}: not a point file `pocketsplat view` can show (expected a .tg file; bake a mesh first \
          with `pocketsplat bake MESH -o FILE.tg`)",
