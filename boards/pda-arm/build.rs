@@ -1,14 +1,21 @@
-//! Linker setup for the bare-metal ARM build only.
+//! Linker setup for the bare-metal ARM build, and the baked model the firmware links in.
 //!
-//! `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
-//! `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
-//! every other crate of the workspace never see it (STYLE.md 2).
+//! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
+//!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
+//!   every other crate of the workspace never see it (STYLE.md 2).
+//! - With the `model` feature, `POCKETSPLAT_PDA_MODEL` names a baked `.tg` file; its absolute path is
+//!   handed to the firmware as `POCKETSPLAT_PDA_MODEL_FILE`, which `include_bytes!` links into
+//!   `.psram`. A feature rather than the variable alone, so that the builds with and without a model
+//!   are separate artifacts that cargo keeps side by side instead of rebuilding on every switch.
 
 use std::env;
 use std::path::PathBuf;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    if env::var_os("CARGO_FEATURE_MODEL").is_some() {
+        model();
+    }
     let arch = env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default();
     let os = env::var("CARGO_CFG_TARGET_OS").unwrap_or_default();
     if arch != "arm" || os != "none" {
@@ -16,12 +23,47 @@ fn main() {
     }
     // memory.x lives at the workspace root (one memory map for the reference board). rust-lld finds it
     // in its working directory, which cargo sets to the workspace root; the search path makes that not
-    // depend on where rustc happens to run, and the rerun line relinks when the map changes.
-    let root =
-        PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"))
-            .join("../..");
+    // depend on where rustc happens to run, and the rerun line relinks when the map changes. Only the
+    // mps2 firmware binary links with it.
+    if env::var_os("CARGO_FEATURE_MPS2").is_none() {
+        return;
+    }
+    let root = manifest_dir().join("../..");
     let root = root.canonicalize().unwrap_or(root);
-    println!("cargo:rustc-link-search={}", root.display());
+    // As a link argument of the binary, not `rustc-link-search`: search paths propagate to the link
+    // of every crate that depends on this package's lib, and another board has its own memory.x.
+    println!("cargo:rustc-link-arg-bins=-L{}", root.display());
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
+}
+
+fn manifest_dir() -> PathBuf {
+    PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"))
+}
+
+/// Resolves `POCKETSPLAT_PDA_MODEL` (relative paths from the workspace root, where the README's
+/// commands run) and passes it on; a missing variable or file is an error that says what to do.
+fn model() {
+    const VAR: &str = "POCKETSPLAT_PDA_MODEL";
+    println!("cargo:rerun-if-env-changed={VAR}");
+    let Some(path) = env::var_os(VAR) else {
+        panic!(
+            "the `model` feature needs {VAR}=<baked .tg file> \
+             (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)"
+        );
+    };
+    let path = PathBuf::from(path);
+    let path = if path.is_absolute() {
+        path
+    } else {
+        manifest_dir().join("../..").join(path)
+    };
+    let path = path
+        .canonicalize()
+        .unwrap_or_else(|e| panic!("{VAR}={}: {e}", path.display()));
+    println!("cargo:rerun-if-changed={}", path.display());
+    println!(
+        "cargo:rustc-env=POCKETSPLAT_PDA_MODEL_FILE={}",
+        path.display()
+    );
 }

@@ -6,6 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod arm;
+pub mod elf;
+
 /// The workspace root (the folder holding the top-level `Cargo.toml`).
 pub fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

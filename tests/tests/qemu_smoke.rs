@@ -1,155 +1,40 @@
-//! The firmware under QEMU: builds `boards/pda-arm` for thumbv7m-none-eabi, boots it on mps2-an385 with
-//! the runner of `.cargo/config.toml`, and checks what it reports against the host, which renders the
-//! same frame with the same library function (DESIGN.md: same frames, same CRC on ARM and host).
+//! The firmware under QEMU, without a model: builds `boards/pda-arm` for thumbv7m-none-eabi, boots it
+//! on mps2-an385 with the runner of `.cargo/config.toml`, and checks what it reports against the host,
+//! which renders the same test-pattern frame with the same library function (DESIGN.md: same frames,
+//! same CRC on ARM and host); that faults and panics end the run with a failure status instead of a
+//! hang; and that the instruction counter (`tests/qemu-plugin/icount.c`) counts exactly.
 //!
-//! Needs `qemu-system-arm`: without it these tests fail under CI and are skipped, with a note, elsewhere.
-
-use std::fs;
-use std::path::PathBuf;
-use std::process::{Command, Output};
-use std::sync::Mutex;
+//! Needs `qemu-system-arm` (and a C compiler for the counter): without QEMU these tests fail under CI
+//! and are skipped, with a note, elsewhere.
 
 use pocketsplat_pda::{frame_crc, render_test_frame, FRAMEBUFFER_BYTES, PIXELS};
-use pocketsplat_tests::{under_ci, workspace_root};
+use pocketsplat_tests::arm::{
+    check_memory, frame_costs, have_qemu, Counter, Firmware, Run, BOARD_RAM_BYTES,
+};
 
-const TARGET: &str = "thumbv7m-none-eabi";
-/// RAM of the board, bytes (memory.x).
-const BOARD_RAM_BYTES: usize = 4 << 20;
-/// Seconds a QEMU run may take before it counts as hung.
-const QEMU_TIMEOUT_S: &str = "60";
-
-/// Serialises firmware builds: every variant builds into the same target dir and output path.
-static BUILD: Mutex<()> = Mutex::new(());
-
-/// Builds the firmware with `features` and returns a copy of the ELF that later builds do not
-/// overwrite.
-fn build_firmware(features: &[&str]) -> PathBuf {
-    let root = workspace_root();
-    // A target dir of its own: the `cargo test` running this holds the lock on target/ itself.
-    let target_dir = root.join("target/arm");
-    let _guard = BUILD
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(&root).env("CARGO_TARGET_DIR", &target_dir);
-    cmd.args([
-        "build",
-        "-p",
-        "pocketsplat-pda",
-        "--target",
-        TARGET,
-        "--release",
-    ]);
-    if !features.is_empty() {
-        cmd.args(["--features", &features.join(",")]);
-    }
-    let out = cmd.output().expect("cargo runs");
-    assert!(
-        out.status.success(),
-        "firmware build failed ({cmd:?}):\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-
-    let built = target_dir.join(TARGET).join("release/pocketsplat-pda");
-    let variant = if features.is_empty() {
-        "default".to_owned()
-    } else {
-        features.join("+")
-    };
-    let elf = target_dir
-        .join("qemu-smoke")
-        .join(format!("pocketsplat-pda-{variant}.elf"));
-    fs::create_dir_all(elf.parent().unwrap()).unwrap();
-    fs::copy(&built, &elf)
-        .unwrap_or_else(|e| panic!("copy {} to {}: {e}", built.display(), elf.display()));
-    elf
-}
-
-/// The QEMU command line of the bare-metal ARM runner in `.cargo/config.toml`, so that the tests run
-/// the firmware exactly as `cargo run --target thumbv7m-none-eabi` does.
-fn runner() -> Vec<String> {
-    let path = workspace_root().join(".cargo/config.toml");
-    let config = fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let table = r#"[target.'cfg(all(target_arch = "arm", target_os = "none"))']"#;
-    let line = config
-        .lines()
-        .skip_while(|l| l.trim() != table)
-        .find_map(|l| l.trim().strip_prefix("runner"))
-        .unwrap_or_else(|| panic!("no runner under {table} in {}", path.display()));
-    let command = line
-        .trim_start()
-        .trim_start_matches('=')
-        .trim()
-        .trim_matches('"');
-    command.split_whitespace().map(str::to_owned).collect()
-}
-
-/// Whether QEMU can be run here; `false` (after a note) only off CI.
-///
-/// # Panics
-/// Under CI when QEMU is missing: the QEMU tests must never skip there.
-fn have_qemu() -> bool {
-    let qemu = &runner()[0];
-    if Command::new(qemu)
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success())
-    {
-        return true;
-    }
-    assert!(
-        !under_ci(),
-        "{qemu} is missing and CI=true: install it (.ci/test-all does)"
-    );
-    eprintln!("note: {qemu} not found; QEMU test skipped (run .ci/test-all, or set CI=true to make this fail)");
-    false
-}
-
-/// Boots the firmware built with `features` in QEMU, under `timeout`; prints its output.
-fn run_firmware(features: &[&str]) -> Option<Output> {
+/// Builds the plain firmware with `features` and boots it, counting instructions with `counter`.
+fn run_firmware(features: &[&str], counter: Option<&Counter>) -> Option<(Run, std::path::PathBuf)> {
     if !have_qemu() {
         return None;
     }
-    let elf = build_firmware(features);
-    let runner = runner();
-    let out = Command::new("timeout")
-        .arg(QEMU_TIMEOUT_S)
-        .args(&runner)
-        .arg(&elf)
-        .output()
-        .expect("timeout (coreutils) runs");
-    eprintln!(
-        "{} {} {}\nstatus: {}\nstdout:\n{}stderr:\n{}",
-        QEMU_TIMEOUT_S,
-        runner.join(" "),
-        elf.display(),
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(out)
-}
-
-/// The rest of the first stdout line that starts with `prefix`.
-fn field<'a>(stdout: &'a str, prefix: &str) -> Option<&'a str> {
-    stdout
-        .lines()
-        .find_map(|l| l.strip_prefix(prefix))
-        .map(str::trim)
+    let fw = Firmware::plain(features);
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, counter).unwrap();
+    eprintln!("{}", run.transcript());
+    Some((run, elf))
 }
 
 #[test]
 fn firmware_frame_crc_matches_the_host() {
-    let Some(out) = run_firmware(&[]) else { return };
+    let Some((run, elf)) = run_firmware(&[], None) else {
+        return;
+    };
     assert_eq!(
-        out.status.code(),
+        run.output.status.code(),
         Some(0),
         "the firmware must exit through semihosting with status 0"
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-
-    let crc = field(&stdout, "frame 0 crc ").expect("a `frame 0 crc 0x…` line");
+    let crc = run.field("frame 0 crc ").expect("a `frame 0 crc 0x…` line");
     let crc =
         u32::from_str_radix(crc.strip_prefix("0x").expect("hex with 0x"), 16).expect("a hex u32");
     let mut fb = vec![0u16; PIXELS];
@@ -160,28 +45,26 @@ fn firmware_frame_crc_matches_the_host() {
         "ARM frame 0 CRC {crc:#010x} differs from the host's {host:#010x}"
     );
 
-    let ram: usize = field(&stdout, "ram_bytes ")
-        .expect("a `ram_bytes N` line")
-        .parse()
-        .expect("a number");
+    let (memory, _) = check_memory(&run, &elf).unwrap();
     assert!(
-        (FRAMEBUFFER_BYTES..=BOARD_RAM_BYTES).contains(&ram),
-        "ram_bytes {ram}: must hold the {FRAMEBUFFER_BYTES}-byte framebuffer and fit the board's {BOARD_RAM_BYTES}"
+        (FRAMEBUFFER_BYTES as u64..=BOARD_RAM_BYTES).contains(&memory.ram),
+        "RAM {} bytes: must hold the {FRAMEBUFFER_BYTES}-byte framebuffer",
+        memory.ram
     );
 }
 
 /// A failure (panic or fault) must end the run with status 1, not hang until the timeout (124).
-fn assert_fails_fast(out: &Output, report: &str) {
+fn assert_fails_fast(run: &Run, report: &str) {
     assert_eq!(
-        out.status.code(),
+        run.output.status.code(),
         Some(1),
         "expected semihosting EXIT_FAILURE (status 1), got {}",
-        out.status
+        run.output.status
     );
     let all = format!(
         "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
+        run.stdout(),
+        String::from_utf8_lossy(&run.output.stderr)
     );
     assert!(
         all.contains(report),
@@ -195,16 +78,48 @@ fn assert_fails_fast(out: &Output, report: &str) {
 
 #[test]
 fn firmware_hardfault_exits_with_failure() {
-    let Some(out) = run_firmware(&["selftest-fault"]) else {
+    let Some((run, _)) = run_firmware(&["selftest-fault"], None) else {
         return;
     };
-    assert_fails_fast(&out, "hardfault: pc=");
+    assert_fails_fast(&run, "hardfault: pc=");
 }
 
 #[test]
 fn firmware_panic_exits_with_failure() {
-    let Some(out) = run_firmware(&["selftest-panic"]) else {
+    let Some((run, _)) = run_firmware(&["selftest-panic"], None) else {
         return;
     };
-    assert_fails_fast(&out, "panic: ");
+    assert_fails_fast(&run, "panic: ");
+}
+
+/// The counter sees the test pattern's frame between its markers, the same number of instructions
+/// on every run (QEMU's TCG is deterministic for a single-core guest without I/O timing), and a
+/// plausible number: every one of the 76 800 pixels costs some instructions, none costs thousands.
+#[test]
+fn instruction_counts_are_exact_and_repeatable() {
+    if !have_qemu() {
+        return;
+    }
+    let counter = Counter::build().unwrap();
+    let counts: Vec<_> = (0..2)
+        .map(|_| {
+            let (run, _) = run_firmware(&[], Some(&counter)).unwrap();
+            assert_eq!(run.output.status.code(), Some(0));
+            run.marks.expect("the counter's marks")
+        })
+        .collect();
+    assert_eq!(counts[0], counts[1], "two runs counted differently");
+    // One frame, all its phases marked; all the work is in the traverse phase.
+    let costs = frame_costs(&counts[0]).unwrap();
+    assert_eq!(costs.len(), 1, "marker hits {:?}", counts[0].hits);
+    let frame = costs[0].traverse;
+    eprintln!(
+        "test pattern frame: {frame} instructions, whole run {}",
+        counts[0].total
+    );
+    assert!(
+        (10 * PIXELS as u64..1000 * PIXELS as u64).contains(&frame),
+        "{frame} instructions for {PIXELS} pixels"
+    );
+    assert!(costs[0].frame() - frame < 100, "{:?}", costs[0]);
 }

@@ -1,12 +1,15 @@
 //! # pocketsplat-pda
 //!
-//! The board-independent half of the Cortex-M firmware: what it draws and how the frame is checksummed.
-//! It is `no_std` and builds for the host too, so the host tests compute the CRC the firmware must print
-//! under QEMU by calling the very same functions (DESIGN.md: the ARM build and the host build render the
-//! same frames to the same CRC).
+//! The board-independent half of the Cortex-M firmware: what it draws and how a frame is checksummed.
+//! It is `no_std` and builds for the host too, so the host tests compute the CRCs the firmware must
+//! print under QEMU by calling the very same functions (DESIGN.md: the ARM build and the host build
+//! render the same frames to the same CRC).
 //!
-//! For now the frame is a test pattern (an integer-shaded sphere over a gradient-and-xor background);
-//! real rendering from `pocketsplat-core` replaces it later.
+//! - [`views`]: the four standard views of a resident tri-grid at several cutoffs (and, with the
+//!   `shadows` feature, with one-pass and two-pass shadows), the frames the firmware renders when a
+//!   baked model is linked in, and the line it prints per frame.
+//! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
+//!   background), drawn when the firmware is built without a model.
 //!
 //! ```
 //! use pocketsplat_pda::{frame_crc, render_test_frame, PIXELS};
@@ -20,12 +23,17 @@
 // Per-pixel work is integer only, as on the FPU-less device (DESIGN.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
+pub mod views;
+
+pub use views::{
+    frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, FrameLine, FrameReport,
+    FrameSpec, Phase, Shadows, Targets, CUTOFFS_PX, SHADOW_MAP_SIZE, SHADOW_MODES,
+};
+
 use pocketsplat_core::crc::Crc32;
 
-/// Framebuffer width, pixels.
-pub const WIDTH: usize = 240;
-/// Framebuffer height, pixels.
-pub const HEIGHT: usize = 320;
+/// Framebuffer width and height, pixels (the core's, one definition).
+pub use pocketsplat_core::camera::{HEIGHT, WIDTH};
 /// Pixels in a frame.
 pub const PIXELS: usize = WIDTH * HEIGHT;
 /// Size of one RGB565 framebuffer, bytes.

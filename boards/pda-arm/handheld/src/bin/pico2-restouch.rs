@@ -1,0 +1,155 @@
+//! pocketsplat on a Raspberry Pi Pico 2 (RP2350A, Cortex-M33 at 150 MHz, 520 KB SRAM, 4 MB flash)
+//! plugged into a Waveshare Pico-ResTouch-LCD-2.8 (ST7789 240×320 IPS panel and a micro-SD slot on
+//! SPI1), with six push buttons from GP2–GP7 to ground. Wiring and flashing: `../README.md`.
+//!
+//! This file only binds pins: the viewer is [`pocketsplat_handheld::run`]. The panel and the card
+//! share SPI1 through `embedded-hal-bus`'s `RefCellDevice`, one chip select each; the touch
+//! controller's chip select is held high so it stays off the bus. The card is read at 400 kHz
+//! (initialisation), then the bus goes to 62.5 MHz for the panel.
+#![no_std]
+#![no_main]
+
+use core::cell::RefCell;
+
+use defmt_rtt as _;
+use embedded_hal::digital::OutputPin;
+use embedded_hal_bus::spi::RefCellDevice;
+use hal::clocks::Clock as _;
+use hal::fugit::RateExtU32;
+use hal::gpio::{FunctionSpi, PinState};
+use panic_probe as _;
+use pocketsplat_core::camera::{HEIGHT, WIDTH};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_handheld::{load_model, run, Buffers, Buttons, Clock, Panel, MODEL_FILE};
+use rp235x_hal as hal;
+
+/// Tells the boot ROM this is a secure Arm executable.
+// `link_section` counts as unsafe code: the boot ROM looks for this block in the first 4 KB of flash,
+// where memory.x places `.start_block`.
+#[allow(unsafe_code)]
+#[link_section = ".start_block"]
+#[used]
+pub static IMAGE_DEF: hal::block::ImageDef = hal::block::ImageDef::secure_exe();
+
+/// The Pico 2's crystal.
+const XTAL_FREQ_HZ: u32 = 12_000_000;
+/// A model read from the SD card must fit here (a depth-4 bunny is 72 KB).
+const ARENA_BYTES: usize = 128 * 1024;
+
+/// The model linked into flash at build time (`model` feature), used when the card has none.
+#[cfg(feature = "model")]
+static FLASH_MODEL: &[u8] = include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE"));
+#[cfg(not(feature = "model"))]
+static FLASH_MODEL: &[u8] = &[];
+
+/// The RP2350's 1 MHz timer as the viewer's clock.
+struct Timer(hal::Timer<hal::timer::CopyableTimer0>);
+
+impl Clock for Timer {
+    fn now_us(&mut self) -> u64 {
+        self.0.get_counter().ticks()
+    }
+}
+
+#[hal::entry]
+fn main() -> ! {
+    // cortex-m-rt turns these into `&'static mut` in .bss (RAM), not on the stack.
+    static mut COLOR: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    static mut DEPTH: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    static mut TABLE: ShadingTable<1> = ShadingTable::new();
+    static mut ARENA: [u8; ARENA_BYTES] = [0; ARENA_BYTES];
+    static mut SPI_BUFFER: [u8; 4096] = [0; 4096];
+
+    let mut pac = hal::pac::Peripherals::take().expect("peripherals taken once");
+    let mut watchdog = hal::Watchdog::new(pac.WATCHDOG);
+    let Ok(clocks) = hal::clocks::init_clocks_and_plls(
+        XTAL_FREQ_HZ,
+        pac.XOSC,
+        pac.CLOCKS,
+        pac.PLL_SYS,
+        pac.PLL_USB,
+        &mut pac.RESETS,
+        &mut watchdog,
+    ) else {
+        panic!("clock setup failed");
+    };
+    let timer = hal::Timer::new_timer0(pac.TIMER0, &mut pac.RESETS, &clocks);
+    let sio = hal::Sio::new(pac.SIO);
+    let pins = hal::gpio::Pins::new(
+        pac.IO_BANK0,
+        pac.PADS_BANK0,
+        sio.gpio_bank0,
+        &mut pac.RESETS,
+    );
+
+    // SPI1: SCK GP10, MOSI GP11, MISO GP12.
+    let sck = pins.gpio10.into_function::<FunctionSpi>();
+    let mosi = pins.gpio11.into_function::<FunctionSpi>();
+    let miso = pins.gpio12.into_function::<FunctionSpi>();
+    let spi = hal::spi::Spi::<_, _, _, 8>::new(pac.SPI1, (mosi, miso, sck)).init(
+        &mut pac.RESETS,
+        clocks.peripheral_clock.freq(),
+        400.kHz(),
+        embedded_hal::spi::MODE_0,
+    );
+    let bus = RefCell::new(spi);
+    // Chip selects high before anything talks: panel GP9, SD card GP22, touch controller GP16.
+    let lcd_cs = pins.gpio9.into_push_pull_output_in_state(PinState::High);
+    let sd_cs = pins.gpio22.into_push_pull_output_in_state(PinState::High);
+    let mut touch_cs = pins.gpio16.into_push_pull_output_in_state(PinState::High);
+    let _ = touch_cs.set_high();
+
+    let sd = RefCellDevice::new(&bus, sd_cs, timer).expect("chip select");
+    let model = match load_model(sd, timer, ARENA) {
+        Err(e) if !FLASH_MODEL.is_empty() => {
+            defmt::info!("{}: {}; drawing the model in flash", MODEL_FILE, e);
+            Ok(FLASH_MODEL)
+        }
+        from_card => from_card,
+    };
+    let baud = bus
+        .borrow_mut()
+        .set_baudrate(clocks.peripheral_clock.freq(), 62_500.kHz());
+    defmt::info!("SPI1 at {} Hz", baud.to_Hz());
+
+    let panel = Panel {
+        spi: RefCellDevice::new(&bus, lcd_cs, timer).expect("chip select"),
+        dc: pins.gpio8.into_push_pull_output(),
+        reset: pins.gpio15.into_push_pull_output_in_state(PinState::High),
+        backlight: pins.gpio13.into_push_pull_output(),
+    };
+    let buttons = Buttons {
+        pins: [
+            pins.gpio2.into_pull_up_input().into_dyn_pin(),
+            pins.gpio3.into_pull_up_input().into_dyn_pin(),
+            pins.gpio4.into_pull_up_input().into_dyn_pin(),
+            pins.gpio5.into_pull_up_input().into_dyn_pin(),
+            pins.gpio6.into_pull_up_input().into_dyn_pin(),
+            pins.gpio7.into_pull_up_input().into_dyn_pin(),
+        ],
+    };
+    run(
+        panel,
+        buttons,
+        timer,
+        Timer(timer),
+        SPI_BUFFER,
+        Buffers {
+            color: COLOR,
+            depth: DEPTH,
+            table: TABLE,
+        },
+        model,
+    )
+}
+
+/// Program metadata for `picotool info`.
+// `link_section`: picotool finds the entries through the table memory.x's `.bi_entries` bounds.
+#[allow(unsafe_code)]
+#[link_section = ".bi_entries"]
+#[used]
+pub static PICOTOOL_ENTRIES: [hal::binary_info::EntryAddr; 3] = [
+    hal::binary_info::rp_cargo_bin_name!(),
+    hal::binary_info::rp_cargo_version!(),
+    hal::binary_info::rp_program_description!(c"pocketsplat viewer (Pico-ResTouch-LCD-2.8)"),
+];

@@ -1,0 +1,668 @@
+//! The firmware (`boards/pda-arm`) under QEMU: building it for a bare-metal ARM target, booting it
+//! with the runner of `.cargo/config.toml`, counting its instructions with the TCG plugin in
+//! `tests/qemu-plugin/icount.c`, and comparing the frames it reports with the host's. Shared by the
+//! QEMU tests (`tests/tests/qemu_*.rs`) and `arm-bench`.
+//!
+//! Everything is built into `target/arm`, a target dir of its own: the `cargo test` or `cargo run`
+//! calling this holds the lock on `target/`. `.ci/test-all` builds the plain firmware there first.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::Mutex;
+
+use anyhow::{bail, ensure, Context, Result};
+use pocketsplat_core::bake::BakeOptions;
+use pocketsplat_pda::{FrameLine, FrameReport, FrameSpec, Phase};
+
+use crate::elf::{Elf, Memory};
+use crate::{model, workspace_root};
+
+/// The reference target: QEMU's mps2-an385 (Cortex-M3).
+pub const TARGET: &str = "thumbv7m-none-eabi";
+/// Targets `arm-bench` builds and runs: Cortex-M0+ code (on the M3 machine, which runs it), M3, and
+/// M4F on mps2-an386.
+pub const BENCH_TARGETS: [&str; 3] = [TARGET, "thumbv6m-none-eabi", "thumbv7em-none-eabihf"];
+/// Start of RAM and of PSRAM in memory.x.
+pub const RAM_ORIGIN: u32 = 0x2000_0000;
+/// Start of PSRAM in memory.x.
+pub const PSRAM_ORIGIN: u32 = 0x2100_0000;
+/// RAM of the board, bytes (memory.x).
+pub const BOARD_RAM_BYTES: u64 = 4 << 20;
+/// Flash of the board, bytes (memory.x).
+pub const BOARD_FLASH_BYTES: u64 = 4 << 20;
+/// PSRAM of the board, bytes (memory.x).
+pub const BOARD_PSRAM_BYTES: u64 = 16 << 20;
+/// Seconds a QEMU run of the tests may take before it counts as hung (a few times what the slowest,
+/// the shadowed bunny with the counter, takes on a loaded 2-core machine).
+pub const QEMU_TIMEOUT_S: u32 = 300;
+/// The marker functions of the firmware, in [`Phase::ALL`] order.
+pub const MARKERS: [&str; 5] = [
+    "pocketsplat_mark_setup",
+    "pocketsplat_mark_table",
+    "pocketsplat_mark_clear",
+    "pocketsplat_mark_traverse",
+    "pocketsplat_mark_end",
+];
+
+/// Serialises firmware builds: every variant builds into the same target dir and output path.
+static BUILD: Mutex<()> = Mutex::new(());
+
+/// `target/arm` of the workspace.
+pub fn target_dir() -> PathBuf {
+    workspace_root().join("target/arm")
+}
+
+/// A firmware variant: target triple, cargo features, and the baked model it links in (the `model`
+/// feature is added when there is one).
+#[derive(Clone, Debug)]
+pub struct Firmware<'a> {
+    /// Target triple.
+    pub target: &'a str,
+    /// Cargo features of pocketsplat-pda.
+    pub features: &'a [&'a str],
+    /// Baked `.tg` file for `POCKETSPLAT_PDA_MODEL`.
+    pub model: Option<&'a Path>,
+}
+
+impl Firmware<'_> {
+    /// The plain firmware for the reference target with `features`.
+    pub fn plain<'a>(features: &'a [&'a str]) -> Firmware<'a> {
+        Firmware {
+            target: TARGET,
+            features,
+            model: None,
+        }
+    }
+
+    /// A name for this variant (`thumbv7m-none-eabi-model+shadows`).
+    pub fn name(&self) -> String {
+        let mut features: Vec<&str> = self.features.to_vec();
+        if self.model.is_some() {
+            features.insert(0, "model");
+        }
+        if features.is_empty() {
+            features.push("default");
+        }
+        format!("{}-{}", self.target, features.join("+"))
+    }
+
+    /// The QEMU machine and CPU for the target: mps2-an386 (Cortex-M4F) for `thumbv7em-*hf`,
+    /// otherwise the runner's mps2-an385.
+    fn machine(&self) -> Option<(&'static str, &'static str)> {
+        self.target
+            .starts_with("thumbv7em")
+            .then_some(("mps2-an386", "cortex-m4"))
+    }
+
+    /// Builds the firmware (release) and returns a copy of the ELF that later builds do not
+    /// overwrite, in `target/arm/elf/`.
+    ///
+    /// # Errors
+    /// When cargo fails (its stderr is in the error) or the ELF cannot be copied.
+    pub fn build(&self) -> Result<PathBuf> {
+        let root = workspace_root();
+        let target_dir = target_dir();
+        let _guard = BUILD
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        // scripts/arm-cargo: plain cargo, or cargo building `core` from source where this
+        // toolchain has no prebuilt standard library for the target.
+        let mut cmd = Command::new(root.join("scripts/arm-cargo"));
+        cmd.current_dir(&root).env("CARGO_TARGET_DIR", &target_dir);
+        cmd.args([
+            "build",
+            "-p",
+            "pocketsplat-pda",
+            "--target",
+            self.target,
+            "--release",
+        ]);
+        let mut features: Vec<&str> = self.features.to_vec();
+        if let Some(model) = self.model {
+            features.push("model");
+            cmd.env("POCKETSPLAT_PDA_MODEL", model);
+        } else {
+            cmd.env_remove("POCKETSPLAT_PDA_MODEL");
+        }
+        if !features.is_empty() {
+            cmd.args(["--features", &features.join(",")]);
+        }
+        let out = cmd.output().context("running cargo")?;
+        ensure!(
+            out.status.success(),
+            "firmware build failed ({cmd:?}):\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let built = target_dir.join(self.target).join("release/pocketsplat-pda");
+        let elf = target_dir
+            .join("elf")
+            .join(format!("pocketsplat-pda-{}.elf", self.name()));
+        fs::create_dir_all(elf.parent().expect("a parent"))?;
+        fs::copy(&built, &elf)
+            .with_context(|| format!("copy {} to {}", built.display(), elf.display()))?;
+        Ok(elf)
+    }
+
+    /// The QEMU command line for this firmware: the bare-metal ARM runner of `.cargo/config.toml`
+    /// (so the tests run it exactly as `cargo run --target …` does), with the machine switched for
+    /// an M4F target.
+    pub fn qemu_command(&self) -> Vec<String> {
+        let mut cmd = runner();
+        if let Some((machine, cpu)) = self.machine() {
+            for (flag, value) in [("-machine", machine), ("-cpu", cpu)] {
+                if let Some(i) = cmd.iter().position(|a| a == flag) {
+                    if let Some(v) = cmd.get_mut(i + 1) {
+                        *v = value.to_owned();
+                    }
+                }
+            }
+        }
+        cmd
+    }
+
+    /// Boots `elf` (built from this variant) under `timeout` [`QEMU_TIMEOUT_S`], with the
+    /// instruction counter when `counter` is given.
+    ///
+    /// # Errors
+    /// When `timeout` or QEMU cannot be started.
+    pub fn run(&self, elf: &Path, counter: Option<&Counter>) -> Result<Run> {
+        self.run_for(elf, counter, QEMU_TIMEOUT_S)
+    }
+
+    /// [`Firmware::run`] with a timeout of `timeout_s` seconds.
+    ///
+    /// # Errors
+    /// When `timeout` or QEMU cannot be started.
+    pub fn run_for(&self, elf: &Path, counter: Option<&Counter>, timeout_s: u32) -> Result<Run> {
+        let mut qemu = self.qemu_command();
+        // The runner ends with `-kernel`, for cargo to append the ELF; the plugin goes before it.
+        if qemu.last().is_some_and(|a| a == "-kernel") {
+            qemu.pop();
+        }
+        let mut cmd = Command::new("timeout");
+        cmd.arg(timeout_s.to_string()).args(&qemu);
+        let marks = counter.map(|c| c.args(elf)).transpose()?;
+        if let Some((args, _)) = &marks {
+            cmd.arg("-plugin").arg(args);
+        }
+        cmd.arg("-kernel").arg(elf);
+        let command = format!("{cmd:?}");
+        let output = cmd.output().context("timeout (coreutils) runs")?;
+        let marks = match marks {
+            Some((_, path)) if output.status.success() => Some(
+                parse_marks(
+                    &fs::read_to_string(&path).with_context(|| path.display().to_string())?,
+                )
+                .with_context(|| format!("{}", path.display()))?,
+            ),
+            _ => None,
+        };
+        Ok(Run {
+            command,
+            output,
+            marks,
+        })
+    }
+}
+
+/// What one QEMU run printed, and what the instruction counter saw.
+#[derive(Debug)]
+pub struct Run {
+    /// The command, for messages.
+    pub command: String,
+    /// Exit status, stdout, stderr.
+    pub output: Output,
+    /// The counter's marks and total, when it ran and QEMU exited with success.
+    pub marks: Option<Marks>,
+}
+
+impl Run {
+    /// Standard output as text.
+    pub fn stdout(&self) -> String {
+        String::from_utf8_lossy(&self.output.stdout).into_owned()
+    }
+
+    /// Everything QEMU printed, with the command and status, for failure messages.
+    pub fn transcript(&self) -> String {
+        format!(
+            "{}\nstatus: {}\nstdout:\n{}stderr:\n{}",
+            self.command,
+            self.output.status,
+            self.stdout(),
+            String::from_utf8_lossy(&self.output.stderr)
+        )
+    }
+
+    /// The rest of the first stdout line that starts with `prefix`, trimmed.
+    pub fn field(&self, prefix: &str) -> Option<String> {
+        self.stdout()
+            .lines()
+            .find_map(|l| l.strip_prefix(prefix))
+            .map(|s| s.trim().to_owned())
+    }
+
+    /// A `key N` line of the firmware's memory report, as a number.
+    ///
+    /// # Errors
+    /// When the line is missing or not a number.
+    pub fn number(&self, key: &str) -> Result<u64> {
+        let v = self
+            .field(&format!("{key} "))
+            .with_context(|| format!("no `{key} N` line in:\n{}", self.transcript()))?;
+        v.parse()
+            .with_context(|| format!("`{key} {v}` is not a number"))
+    }
+}
+
+/// The QEMU command line of the bare-metal ARM runner in `.cargo/config.toml`.
+///
+/// # Panics
+/// When the file or the runner line is missing (the workspace is broken).
+pub fn runner() -> Vec<String> {
+    let path = workspace_root().join(".cargo/config.toml");
+    let config = fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let table = r#"[target.'cfg(all(target_arch = "arm", target_os = "none"))']"#;
+    let line = config
+        .lines()
+        .skip_while(|l| l.trim() != table)
+        .find_map(|l| l.trim().strip_prefix("runner"))
+        .unwrap_or_else(|| panic!("no runner under {table} in {}", path.display()));
+    let command = line
+        .trim_start()
+        .trim_start_matches('=')
+        .trim()
+        .trim_matches('"');
+    command.split_whitespace().map(str::to_owned).collect()
+}
+
+/// Whether QEMU can be run here; `false` (after a note) only off CI.
+///
+/// # Panics
+/// Under CI when QEMU is missing: the QEMU tests must never skip there.
+pub fn have_qemu() -> bool {
+    let qemu = &runner()[0];
+    if Command::new(qemu)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return true;
+    }
+    assert!(
+        !crate::under_ci(),
+        "{qemu} is missing and CI=true: install it (.ci/test-all does)"
+    );
+    eprintln!("note: {qemu} not found; QEMU test skipped (run .ci/test-all, or set CI=true to make this fail)");
+    false
+}
+
+/// The bunny baked at paper level 5 (tri-grid depth 6) in `target/arm/models/bunny-d6.tg`, or `None`
+/// off CI when the scan is missing ([`model`]).
+///
+/// Baked afresh every time (a few seconds), so the file always matches the current baker; written
+/// only when its bytes change, so that cargo does not relink the firmware that includes it.
+///
+/// # Errors
+/// When the scan cannot be read or baked, or the file cannot be written.
+pub fn baked_bunny() -> Result<Option<PathBuf>> {
+    static BAKE: Mutex<()> = Mutex::new(());
+    let Some(mesh) = model("bun_zipper.ply.gz") else {
+        return Ok(None);
+    };
+    let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
+    let out = target_dir().join("models/bunny-d6.tg");
+    let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
+    let (_, bytes) =
+        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)?;
+    if fs::read(&out).ok().as_deref() != Some(&bytes[..]) {
+        fs::create_dir_all(out.parent().expect("a parent"))?;
+        pocketsplat_sim::fsutil::write_atomic(&out, &bytes)
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    Ok(Some(out))
+}
+
+/// The instruction-counting TCG plugin (`tests/qemu-plugin/icount.c`), built with the C compiler.
+#[derive(Clone, Debug)]
+pub struct Counter {
+    /// The plugin's shared object.
+    pub plugin: PathBuf,
+    /// Also write a per-address profile to this file.
+    pub profile: Option<PathBuf>,
+    /// Limit the profile to what runs between these two marker hits (counted from 0).
+    pub window: Option<(usize, usize)>,
+}
+
+impl Counter {
+    /// Builds the plugin into `target/arm/qemu-plugin/icount.so` with `$CC` (default `cc`):
+    /// `cc -O2 -shared -fPIC`, a fraction of a second.
+    ///
+    /// # Errors
+    /// When the compiler is missing or fails.
+    pub fn build() -> Result<Self> {
+        let src = workspace_root().join("tests/qemu-plugin/icount.c");
+        let dir = target_dir().join("qemu-plugin");
+        fs::create_dir_all(&dir)?;
+        let plugin = dir.join("icount.so");
+        let cc = std::env::var_os("CC").unwrap_or_else(|| "cc".into());
+        let out = Command::new(&cc)
+            .args(["-O2", "-Wall", "-shared", "-fPIC", "-o"])
+            .arg(&plugin)
+            .arg(&src)
+            .output()
+            .with_context(|| {
+                format!(
+                    "running {} (a C compiler builds the QEMU plugin)",
+                    cc.to_string_lossy()
+                )
+            })?;
+        ensure!(
+            out.status.success(),
+            "building the QEMU plugin {} failed:\n{}",
+            src.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        Ok(Counter {
+            plugin,
+            profile: None,
+            window: None,
+        })
+    }
+
+    /// The `-plugin` argument for `elf` (marker addresses from its symbols) and the file the marks go
+    /// to.
+    fn args(&self, elf: &Path) -> Result<(String, PathBuf)> {
+        let image = Elf::read(elf)?;
+        let out = elf.with_extension("marks");
+        let mut arg = format!("{},out={}", self.plugin.display(), out.display());
+        for name in MARKERS {
+            let addr = image
+                .symbol(name)
+                .with_context(|| format!("{}: no symbol {name}", elf.display()))?;
+            write!(arg, ",mark={addr:#x}").expect("a String");
+        }
+        if let Some(p) = &self.profile {
+            write!(arg, ",profile={}", p.display()).expect("a String");
+        }
+        if let Some((from, to)) = self.window {
+            write!(arg, ",window={from}:{to}").expect("a String");
+        }
+        ensure!(
+            !arg.contains(' '),
+            "QEMU plugin arguments cannot hold spaces: {arg}"
+        );
+        Ok((arg, out))
+    }
+}
+
+/// The counter's report: `(marker, instructions so far)` in order, and the run's total.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Marks {
+    /// Each marker hit: index into [`MARKERS`], and the instructions executed before it.
+    pub hits: Vec<(usize, u64)>,
+    /// Instructions of the whole run.
+    pub total: u64,
+}
+
+/// Parses the plugin's `mark I N` and `total N` lines.
+///
+/// # Errors
+/// On any other line, or without a `total` line (QEMU did not exit cleanly).
+pub fn parse_marks(text: &str) -> Result<Marks> {
+    let mut m = Marks::default();
+    let mut total = None;
+    for line in text.lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w[..] {
+            ["mark", i, n] => m.hits.push((i.parse()?, n.parse()?)),
+            ["total", n] => total = Some(n.parse()?),
+            _ => bail!("unexpected counter line `{line}`"),
+        }
+    }
+    m.total =
+        total.context("no `total` line: the run did not end through the plugin's exit hook")?;
+    Ok(m)
+}
+
+/// Instructions of one frame, by [`Phase`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameCost {
+    /// Camera, per-frame integer tables, light tables (soft floats).
+    pub setup: u64,
+    /// Shading-table update.
+    pub table: u64,
+    /// Clearing colour and depth.
+    pub clear: u64,
+    /// Traversal and raster (both passes for two-pass shadows).
+    pub traverse: u64,
+}
+
+impl FrameCost {
+    /// The whole frame, setup to end (the CRC after it is not part of the frame).
+    pub fn frame(&self) -> u64 {
+        self.setup + self.table + self.clear + self.traverse
+    }
+}
+
+/// Splits the marks into one [`FrameCost`] per frame: each frame hits the markers in
+/// [`Phase::ALL`] order.
+///
+/// # Errors
+/// When the hits do not come in whole, ordered groups.
+pub fn frame_costs(marks: &Marks) -> Result<Vec<FrameCost>> {
+    let n = Phase::ALL.len();
+    ensure!(
+        marks.hits.len().is_multiple_of(n),
+        "{} marker hits is not a whole number of {n}-phase frames",
+        marks.hits.len()
+    );
+    marks
+        .hits
+        .chunks_exact(n)
+        .enumerate()
+        .map(|(f, hits)| {
+            for (k, &(i, _)) in hits.iter().enumerate() {
+                ensure!(
+                    i == k,
+                    "frame {f}: marker {} where {} was due",
+                    MARKERS.get(i).unwrap_or(&"?"),
+                    MARKERS[k]
+                );
+            }
+            let d = |k: usize| hits[k + 1].1 - hits[k].1;
+            Ok(FrameCost {
+                setup: d(0),
+                table: d(1),
+                clear: d(2),
+                traverse: d(3),
+            })
+        })
+        .collect()
+}
+
+/// The frame lines the firmware printed, in order.
+pub fn frame_lines(stdout: &str) -> Vec<FrameLine<'_>> {
+    stdout.lines().filter_map(FrameLine::parse).collect()
+}
+
+/// Checks the firmware's frame lines against the frames `expected` (in order) as the host renders
+/// them with `host`. Returns the host's reports.
+///
+/// # Errors
+/// Naming the first frame that differs (its view, cutoff and shadow mode, and both CRCs and
+/// counts), a frame line for a frame that is not expected, or missing frames.
+pub fn compare_frames(
+    stdout: &str,
+    expected: &[FrameSpec],
+    mut host: impl FnMut(FrameSpec) -> Result<FrameReport>,
+) -> Result<Vec<FrameReport>> {
+    let lines = frame_lines(stdout);
+    let mut reports = Vec::with_capacity(expected.len());
+    for (i, &spec) in expected.iter().enumerate() {
+        let name = format!(
+            "frame {i} ({} cutoff {} px, shadows {})",
+            spec.view_name(),
+            spec.cutoff_px,
+            spec.shadows.name()
+        );
+        let Some(line) = lines.get(i) else {
+            bail!(
+                "{name}: the firmware printed only {} of {} frame lines",
+                lines.len(),
+                expected.len()
+            );
+        };
+        ensure!(
+            line.spec() == Some(spec),
+            "{name}: the firmware reported `{} cutoff {} shadows {}` in its place",
+            line.view,
+            line.cutoff_px,
+            line.shadows.name()
+        );
+        let report = host(spec)?;
+        ensure!(
+            line.matches(&report),
+            "{name} differs: ARM crc {:#010x} splats {} nodes {}, host crc {:#010x} splats {} nodes {}",
+            line.crc,
+            line.splats,
+            line.nodes,
+            report.crc,
+            report.stats.splats,
+            report.stats.nodes_visited
+        );
+        reports.push(report);
+    }
+    ensure!(
+        lines.len() == expected.len(),
+        "the firmware printed {} frame lines, {} expected",
+        lines.len(),
+        expected.len()
+    );
+    Ok(reports)
+}
+
+/// Checks the firmware's memory report (`ram_bytes`, `flash_bytes`, `psram_bytes`, `stack_bytes`)
+/// against its ELF's sections and the board's memories; returns the ELF's figures.
+///
+/// # Errors
+/// When a figure is missing, disagrees with the ELF beyond alignment padding, or does not fit.
+pub fn check_memory(run: &Run, elf: &Path) -> Result<(Memory, u64)> {
+    let image = Elf::read(elf)?;
+    let m = image.memory(RAM_ORIGIN, PSRAM_ORIGIN);
+    let (ram, flash, psram, stack) = (
+        run.number("ram_bytes")?,
+        run.number("flash_bytes")?,
+        run.number("psram_bytes")?,
+        run.number("stack_bytes")?,
+    );
+    // Linker symbols against section headers: equal up to the padding between sections.
+    let close = |what: &str, reported: u64, sections: u64| {
+        ensure!(
+            (sections..=sections + 64).contains(&reported),
+            "{what}: the firmware reports {reported} bytes, its ELF sections hold {sections}"
+        );
+        Ok(())
+    };
+    close("RAM", ram, m.ram)?;
+    close("flash", flash, m.flash)?;
+    close("PSRAM", psram, m.psram)?;
+    ensure!(
+        ram + stack <= BOARD_RAM_BYTES,
+        "RAM {ram} + stack {stack} bytes exceed the board's {BOARD_RAM_BYTES}"
+    );
+    ensure!(
+        flash <= BOARD_FLASH_BYTES,
+        "flash {flash} bytes exceed the board's {BOARD_FLASH_BYTES}"
+    );
+    ensure!(
+        psram <= BOARD_PSRAM_BYTES,
+        "PSRAM {psram} bytes exceed the board's {BOARD_PSRAM_BYTES}"
+    );
+    Ok((m, stack))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pocketsplat_core::splat::Stats;
+    use pocketsplat_pda::{frame_specs_for, Shadows};
+
+    fn report(spec: FrameSpec, crc: u32) -> FrameReport {
+        FrameReport {
+            spec,
+            crc,
+            stats: Stats {
+                splats: 7,
+                nodes_visited: 9,
+                ..Stats::default()
+            },
+            table_rebuilt: false,
+        }
+    }
+
+    #[test]
+    fn a_differing_crc_names_the_first_differing_frame() {
+        let specs: Vec<_> = frame_specs_for(&Shadows::ALL).collect();
+        let stdout: String = specs
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| format!("{}\n", report(s, i as u32)))
+            .collect();
+        let host = |bad: Option<usize>| {
+            let specs = specs.clone();
+            move |s: FrameSpec| {
+                let i = specs.iter().position(|&x| x == s).unwrap();
+                Ok(report(s, if Some(i) == bad { 0xdead } else { i as u32 }))
+            }
+        };
+        assert_eq!(
+            compare_frames(&stdout, &specs, host(None)).unwrap().len(),
+            specs.len()
+        );
+        let err = compare_frames(&stdout, &specs, host(Some(13)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with(
+                "frame 13 (front cutoff 2 px, shadows off) differs: ARM crc 0x0000000d"
+            ),
+            "{err}"
+        );
+        // A missing frame, a frame out of place, an extra frame.
+        let short: String = stdout.lines().take(5).map(|l| format!("{l}\n")).collect();
+        let err = compare_frames(&short, &specs, host(None)).unwrap_err();
+        assert!(err.to_string().contains("only 5 of 48"), "{err}");
+        let err = compare_frames(&stdout, &specs[1..], host(None)).unwrap_err();
+        assert!(err.to_string().contains("in its place"), "{err}");
+        let err = compare_frames(&stdout, &specs[..47], host(None)).unwrap_err();
+        assert!(err.to_string().contains("48 frame lines, 47"), "{err}");
+    }
+
+    #[test]
+    fn marks_split_into_frames_by_phase() {
+        let text = "mark 0 100\nmark 1 150\nmark 2 160\nmark 3 170\nmark 4 1170\n\
+                    mark 0 2000\nmark 1 2001\nmark 2 2002\nmark 3 2003\nmark 4 2004\ntotal 9999\n";
+        let marks = parse_marks(text).unwrap();
+        assert_eq!(marks.total, 9999);
+        let costs = frame_costs(&marks).unwrap();
+        assert_eq!(
+            costs[0],
+            FrameCost {
+                setup: 50,
+                table: 10,
+                clear: 10,
+                traverse: 1000
+            }
+        );
+        assert_eq!(costs[0].frame(), 1070);
+        assert_eq!(costs[1].frame(), 4);
+        assert!(parse_marks("mark 0 1\n").is_err(), "no total");
+        assert!(parse_marks("mark 0 1\nnoise\ntotal 2\n").is_err());
+        let swapped = parse_marks("mark 1 1\nmark 0 2\nmark 2 3\nmark 3 4\nmark 4 5\ntotal 5\n");
+        assert!(frame_costs(&swapped.unwrap()).is_err());
+        let partial = parse_marks("mark 0 1\nmark 1 2\ntotal 5\n").unwrap();
+        assert!(frame_costs(&partial).is_err());
+    }
+}

@@ -1,0 +1,486 @@
+//! `arm-bench`: the cost of a frame on ARM, in guest instructions counted exactly under QEMU.
+//!
+//! ```text
+//! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg] [--target TRIPLE]...
+//!     [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE]
+//! ```
+//!
+//! Builds the firmware with the model linked into PSRAM (default: the bunny baked at paper level 5,
+//! tri-grid depth 6, into `target/arm/models/`), once without and once with the `shadows` feature,
+//! for each target (default: thumbv7m-none-eabi on mps2-an385, thumbv6m-none-eabi on the same
+//! machine, thumbv7em-none-eabihf on mps2-an386), boots each in QEMU with the instruction counter
+//! (`tests/qemu-plugin/icount.c`), checks every frame's CRC against the host's, and prints per frame:
+//! view, cutoff, shadows, splats, nodes, instructions (and by phase), instructions per visited node
+//! and per drawn splat, and frames per second at 200 MHz assuming one instruction per cycle. The
+//! unshadowed frames come from the build without shadows (what firmware for a scene without shadows
+//! runs); the shadowed ones from the shadows build. Then each build's flash, RAM, stack and PSRAM.
+//!
+//! `--json` prints one JSON object per frame instead. `--profile std:1:off` also profiles that
+//! frame's traversal by function (needs `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use anyhow::{bail, ensure, Context, Result};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::tg::{TriGrid, Verify};
+use pocketsplat_pda::{
+    frame_specs_for, render_standard_view, FrameReport, FrameSpec, Phase, Shadows, Targets, HEIGHT,
+    SHADOW_MAP_SIZE, WIDTH,
+};
+use pocketsplat_tests::arm::{
+    baked_bunny, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
+    FrameCost, BENCH_TARGETS,
+};
+use pocketsplat_tests::elf::Memory;
+use serde_json::json;
+
+/// Seconds a benchmark run may take: Cortex-M0 code under the counter on a loaded machine is slow.
+const TIMEOUT_S: u32 = 1800;
+
+/// Clock for the frames-per-second column, Hz (one instruction per cycle).
+const CLOCK_HZ: f64 = 200e6;
+
+struct Args {
+    model: Option<PathBuf>,
+    targets: Vec<String>,
+    shadows: bool,
+    json: bool,
+    profile: Option<FrameSpec>,
+}
+
+const USAGE: &str =
+    "usage: arm-bench [--model FILE.tg] [--target TRIPLE]... [--no-shadows] [--json] \
+                     [--profile VIEW:CUTOFF:MODE]";
+
+fn parse_args() -> Result<Args> {
+    let mut args = Args {
+        model: None,
+        targets: Vec::new(),
+        shadows: true,
+        json: false,
+        profile: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        let mut value = || {
+            it.next()
+                .with_context(|| format!("{a} needs a value\n{USAGE}"))
+        };
+        match a.as_str() {
+            "--model" => args.model = Some(value()?.into()),
+            "--target" => args.targets.push(value()?),
+            "--no-shadows" => args.shadows = false,
+            "--json" => args.json = true,
+            "--profile" => args.profile = Some(parse_frame(&value()?)?),
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                std::process::exit(0);
+            }
+            _ => bail!("unknown argument {a}\n{USAGE}"),
+        }
+    }
+    if args.targets.is_empty() {
+        args.targets = BENCH_TARGETS.map(str::to_owned).to_vec();
+    }
+    Ok(args)
+}
+
+/// `std:1:off` → the frame of view `std` at cutoff 1 px without shadows.
+fn parse_frame(s: &str) -> Result<FrameSpec> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let [view, cutoff, mode] = parts[..] else {
+        bail!("--profile {s}: want VIEW:CUTOFF:MODE, e.g. std:1:off");
+    };
+    let spec = frame_specs_for(&Shadows::ALL)
+        .find(|f| {
+            f.view_name() == view
+                && cutoff.parse() == Ok(f.cutoff_px)
+                && Some(f.shadows) == Shadows::from_name(mode)
+        })
+        .with_context(|| format!("--profile {s}: not one of the firmware's frames"))?;
+    Ok(spec)
+}
+
+/// One benchmarked frame.
+struct Row {
+    report: FrameReport,
+    cost: FrameCost,
+    build: String,
+    memory: Memory,
+}
+
+/// The host's buffers, to render the frames the firmware must match.
+struct Host<'g> {
+    grid: &'g TriGrid<'g>,
+    color: Box<[[u16; WIDTH]; HEIGHT]>,
+    depth: Box<[[u16; WIDTH]; HEIGHT]>,
+    table: Box<ShadingTable<1>>,
+    shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
+}
+
+impl<'g> Host<'g> {
+    fn new(grid: &'g TriGrid<'g>) -> Self {
+        let rows = || {
+            vec![[0u16; WIDTH]; HEIGHT]
+                .into_boxed_slice()
+                .try_into()
+                .expect("HEIGHT rows")
+        };
+        Host {
+            grid,
+            color: rows(),
+            depth: rows(),
+            table: Box::new(ShadingTable::new()),
+            shadow: vec![0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]
+                .into_boxed_slice()
+                .try_into()
+                .expect("a square map"),
+        }
+    }
+
+    fn render(&mut self, spec: FrameSpec) -> Result<FrameReport> {
+        let mut t = Targets {
+            color: &mut self.color,
+            depth: &mut self.depth,
+            table: &mut self.table,
+            shadow: &mut self.shadow,
+        };
+        Ok(render_standard_view(self.grid, spec, &mut t, |_| {})?)
+    }
+}
+
+/// Builds and runs one firmware variant with the counter; returns its frames, checked against the
+/// host, with their costs, and its memory use.
+fn bench(
+    fw: &Firmware<'_>,
+    modes: &'static [Shadows],
+    counter: &Counter,
+    host: &mut Host<'_>,
+) -> Result<(Vec<Row>, Memory, u64)> {
+    eprintln!("building and running {} …", fw.name());
+    let elf = fw.build()?;
+    let run = fw.run_for(&elf, Some(counter), TIMEOUT_S)?;
+    ensure!(
+        run.output.status.success(),
+        "{} failed:\n{}",
+        fw.name(),
+        run.transcript()
+    );
+    let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
+    let reports = compare_frames(&run.stdout(), &expected, |s| host.render(s))
+        .with_context(|| format!("{}: frames against the host", fw.name()))?;
+    let marks = run.marks.as_ref().context("no counter output")?;
+    let costs = frame_costs(marks)?;
+    ensure!(
+        costs.len() == reports.len(),
+        "one counted frame per frame line"
+    );
+    let (memory, stack) = check_memory(&run, &elf)?;
+    let rows = reports
+        .into_iter()
+        .zip(costs)
+        .map(|(report, cost)| Row {
+            report,
+            cost,
+            build: fw.name(),
+            memory,
+        })
+        .collect();
+    Ok((rows, memory, stack))
+}
+
+fn per(n: u64, d: u32) -> f64 {
+    if d == 0 {
+        0.0
+    } else {
+        n as f64 / f64::from(d)
+    }
+}
+
+fn print_table(target: &str, rows: &[Row]) {
+    println!("\n{target}: instructions per frame (exact, QEMU TCG plugin); fps at 200 MHz, 1 instruction/cycle");
+    println!(
+        "{:<6} {:>6} {:<9} {:>9} {:>9} {:>12} {:>10} {:>10} {:>9} {:>12} {:>9} {:>10} {:>8}",
+        "view",
+        "cutoff",
+        "shadows",
+        "splats",
+        "nodes",
+        "instr/frame",
+        "setup",
+        "table",
+        "clear",
+        "traverse",
+        "/node",
+        "/splat",
+        "fps@200"
+    );
+    for r in rows {
+        let (s, c) = (&r.report, &r.cost);
+        println!(
+            "{:<6} {:>4}px {:<9} {:>9} {:>9} {:>12} {:>10} {:>10} {:>9} {:>12} {:>9.1} {:>10.1} {:>8.2}",
+            s.spec.view_name(),
+            s.spec.cutoff_px,
+            s.spec.shadows.name(),
+            s.stats.splats,
+            s.stats.nodes_visited,
+            c.frame(),
+            c.setup,
+            c.table,
+            c.clear,
+            c.traverse,
+            per(c.traverse, s.stats.nodes_visited),
+            per(c.traverse, s.stats.splats),
+            CLOCK_HZ / c.frame() as f64
+        );
+    }
+}
+
+fn json_row(model: &str, target: &str, r: &Row) -> serde_json::Value {
+    let (s, c) = (&r.report, &r.cost);
+    json!({
+        "model": model,
+        "target": target,
+        "build": r.build,
+        "view": s.spec.view_name(),
+        "cutoff_px": s.spec.cutoff_px,
+        "shadows": s.spec.shadows.name(),
+        "crc": format!("{:#010x}", s.crc),
+        "splats": s.stats.splats,
+        "nodes": s.stats.nodes_visited,
+        "instructions": c.frame(),
+        "setup": c.setup,
+        "table": c.table,
+        "clear": c.clear,
+        "traverse": c.traverse,
+        "traverse_per_node": per(c.traverse, s.stats.nodes_visited),
+        "traverse_per_splat": per(c.traverse, s.stats.splats),
+        "fps_200mhz": CLOCK_HZ / c.frame() as f64,
+        "flash_bytes": r.memory.flash,
+        "ram_bytes": r.memory.ram,
+    })
+}
+
+/// Profiles the traversal of frame `spec` of `fw` (built already) by function, innermost inlined
+/// function first, with `llvm-addr2line`.
+fn profile(
+    fw: &Firmware<'_>,
+    modes: &'static [Shadows],
+    spec: FrameSpec,
+    counter: &Counter,
+) -> Result<()> {
+    let index = frame_specs_for(modes)
+        .position(|s| s == spec)
+        .with_context(|| format!("{} does not render {spec:?}", fw.name()))?;
+    let elf = fw.build()?;
+    let n = Phase::ALL.len();
+    let traverse = Phase::ALL
+        .iter()
+        .position(|&p| p == Phase::Traverse)
+        .expect("a phase");
+    let out = elf.with_extension("profile");
+    let counter = Counter {
+        profile: Some(out.clone()),
+        window: Some((index * n + traverse, index * n + traverse + 1)),
+        ..counter.clone()
+    };
+    let run = fw.run_for(&elf, Some(&counter), TIMEOUT_S)?;
+    ensure!(run.output.status.success(), "{}", run.transcript());
+    let text = std::fs::read_to_string(&out).with_context(|| out.display().to_string())?;
+    let counts: Vec<(String, u64)> = text
+        .lines()
+        .filter_map(|l| {
+            let (a, c) = l.split_once(' ')?;
+            Some((a.to_owned(), c.parse().ok()?))
+        })
+        .collect();
+    let addr2line = std::env::var_os("LLVM_ADDR2LINE").unwrap_or_else(|| "llvm-addr2line".into());
+    let mut child = Command::new(&addr2line)
+        .args(["-f", "-C", "-e"])
+        .arg(&elf)
+        .args(counts.iter().map(|(a, _)| a))
+        .output()
+        .with_context(|| {
+            format!(
+                "running {} (install llvm, or set LLVM_ADDR2LINE)",
+                addr2line.to_string_lossy()
+            )
+        })?;
+    ensure!(
+        child.status.success(),
+        "{}",
+        String::from_utf8_lossy(&child.stderr)
+    );
+    let lines = String::from_utf8(std::mem::take(&mut child.stdout))?;
+    let names: Vec<&str> = lines.lines().step_by(2).collect();
+    ensure!(
+        names.len() == counts.len(),
+        "addr2line answered {} of {}",
+        names.len(),
+        counts.len()
+    );
+    let mut by_fn: BTreeMap<String, u64> = BTreeMap::new();
+    for ((_, c), name) in counts.iter().zip(names) {
+        // Drop the hash and generic arguments: `pocketsplat_core::tg::traverse::Walker::node`.
+        let short = match name.rsplit_once("::h") {
+            Some((n, hash)) if hash.len() == 16 && hash.bytes().all(|b| b.is_ascii_hexdigit()) => n,
+            _ => name,
+        };
+        *by_fn.entry(strip_generics(&unescape(short))).or_default() += c;
+    }
+    let total: u64 = by_fn.values().sum();
+    let mut v: Vec<_> = by_fn.into_iter().collect();
+    v.sort_by_key(|e| std::cmp::Reverse(e.1));
+    println!(
+        "\nprofile of {} {} px shadows {} ({}), traversal phase: {total} instructions",
+        spec.view_name(),
+        spec.cutoff_px,
+        spec.shadows.name(),
+        fw.name()
+    );
+    for (name, c) in v.iter().take(20) {
+        println!("{:6.2}% {c:>12} {name}", 100.0 * *c as f64 / total as f64);
+    }
+    Ok(())
+}
+
+/// Undoes the legacy mangling's escapes that `llvm-addr2line -C` leaves in (`$LT$` for `<`, …).
+fn unescape(s: &str) -> String {
+    let mut s = s
+        .strip_prefix('_')
+        .filter(|r| r.starts_with('$'))
+        .unwrap_or(s)
+        .to_owned();
+    for (from, to) in [
+        ("$LT$", "<"),
+        ("$GT$", ">"),
+        ("$C$", ","),
+        ("$u20$", " "),
+        ("$u7b$", "{"),
+        ("$u7d$", "}"),
+        ("$u5b$", "["),
+        ("$u5d$", "]"),
+        ("$RF$", "&"),
+        ("..", "::"),
+    ] {
+        s = s.replace(from, to);
+    }
+    s
+}
+
+fn strip_generics(s: &str) -> String {
+    let mut out = String::new();
+    let mut depth = 0;
+    for ch in s.chars() {
+        match ch {
+            '<' => depth += 1,
+            '>' => depth -= 1,
+            _ if depth == 0 => out.push(ch),
+            _ => {}
+        }
+    }
+    out
+}
+
+fn run() -> Result<()> {
+    let args = parse_args()?;
+    ensure!(
+        have_qemu(),
+        "qemu-system-arm is needed (apt-get install qemu-system-arm)"
+    );
+    let model = match &args.model {
+        Some(m) => m.canonicalize().with_context(|| m.display().to_string())?,
+        None => baked_bunny()?.context("the bunny scan is missing (set POCKETSPLAT_MODELS)")?,
+    };
+    let bytes = std::fs::read(&model).with_context(|| model.display().to_string())?;
+    let grid = TriGrid::open(&bytes, Verify::Full)
+        .with_context(|| format!("{}: not a valid tri-grid", model.display()))?;
+    let h = grid.header();
+    let name = model_name(&model);
+    if !args.json {
+        println!(
+            "model {name}: {} bytes, rho {} depth {}, {} samples",
+            bytes.len(),
+            h.rho,
+            h.depth,
+            grid.total_samples()
+        );
+    }
+    let counter = Counter::build()?;
+    let mut host = Host::new(&grid);
+    for target in &args.targets {
+        let plain = Firmware {
+            target,
+            features: &[],
+            model: Some(&model),
+        };
+        let shadowed = Firmware {
+            target,
+            features: &["shadows"],
+            model: Some(&model),
+        };
+        let (mut rows, m, stack) = bench(&plain, &[Shadows::Off], &counter, &mut host)?;
+        let mut builds = vec![(plain.name(), m, stack)];
+        if args.shadows {
+            let (shadow_rows, m, stack) = bench(&shadowed, &Shadows::ALL, &counter, &mut host)?;
+            rows.extend(
+                shadow_rows
+                    .into_iter()
+                    .filter(|r| r.report.spec.shadows != Shadows::Off),
+            );
+            builds.push((shadowed.name(), m, stack));
+        }
+        // View by view, then mode, then cutoff: the firmware's order.
+        let order = |r: &Row| {
+            frame_specs_for(&Shadows::ALL)
+                .position(|s| s == r.report.spec)
+                .unwrap_or(usize::MAX)
+        };
+        rows.sort_by_key(order);
+        if args.json {
+            for r in &rows {
+                println!("{}", json_row(&name, target, r));
+            }
+        } else {
+            print_table(target, &rows);
+            println!("all {} frames: CRC identical to the host's", rows.len());
+            println!(
+                "{:<44} {:>9} {:>9} {:>7} {:>9}",
+                "build", "flash", "RAM", "stack", "PSRAM"
+            );
+            for (b, m, stack) in &builds {
+                println!(
+                    "{b:<44} {:>9} {:>9} {stack:>7} {:>9}",
+                    m.flash, m.ram, m.psram
+                );
+            }
+        }
+        if let Some(spec) = args.profile {
+            if spec.shadows == Shadows::Off {
+                profile(&plain, &[Shadows::Off], spec, &counter)?;
+            } else {
+                profile(&shadowed, &Shadows::ALL, spec, &counter)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn model_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("arm-bench: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! The bunny under QEMU: the firmware, with the bunny baked at paper level 5 (tri-grid depth 6)
+//! linked into PSRAM, renders the four standard views at each cutoff (and, built with shadows, with
+//! one-pass and two-pass shadows) and prints one CRC per frame; the host renders the same frames
+//! through the same library function (`pocketsplat_pda::render_standard_view`) and every CRC must be
+//! identical, or the test fails naming the first frame that differs. The host function itself is
+//! checked against the simulator's renderer, which the golden images come from.
+//!
+//! Needs `qemu-system-arm`, a C compiler (the instruction counter) and the bunny scan: without them
+//! these tests fail under CI and are skipped, with a note, elsewhere.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use pocketsplat_core::camera::STANDARD_VIEWS;
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::shadow::ShadowMode;
+use pocketsplat_core::tg::{TriGrid, Verify};
+use pocketsplat_pda::{
+    frame_specs_for, render_standard_view, FrameReport, FrameSpec, Shadows, Targets, CUTOFFS_PX,
+    HEIGHT, SHADOW_MAP_SIZE, WIDTH,
+};
+use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
+use pocketsplat_tests::arm::{
+    baked_bunny, check_memory, frame_costs, have_qemu, Counter, Firmware, FrameCost, TARGET,
+};
+
+/// The baked bunny, once per test binary.
+fn bunny() -> Option<PathBuf> {
+    static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
+    BUNNY.get_or_init(|| baked_bunny().unwrap()).clone()
+}
+
+/// The host's side: the frame buffers the firmware keeps in statics, on the heap.
+struct Host {
+    color: Box<[[u16; WIDTH]; HEIGHT]>,
+    depth: Box<[[u16; WIDTH]; HEIGHT]>,
+    table: Box<ShadingTable<1>>,
+    shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
+}
+
+impl Host {
+    fn new() -> Self {
+        let rows = || {
+            vec![[0u16; WIDTH]; HEIGHT]
+                .into_boxed_slice()
+                .try_into()
+                .expect("HEIGHT rows")
+        };
+        Host {
+            color: rows(),
+            depth: rows(),
+            table: Box::new(ShadingTable::new()),
+            shadow: vec![0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]
+                .into_boxed_slice()
+                .try_into()
+                .expect("a square map"),
+        }
+    }
+
+    fn render(&mut self, grid: &TriGrid<'_>, spec: FrameSpec) -> anyhow::Result<FrameReport> {
+        let mut targets = Targets {
+            color: &mut self.color,
+            depth: &mut self.depth,
+            table: &mut self.table,
+            shadow: &mut self.shadow,
+        };
+        Ok(render_standard_view(grid, spec, &mut targets, |_| {})?)
+    }
+}
+
+/// Builds the firmware with the bunny and `features`, boots it (counting instructions with
+/// `counter`), and compares its frames, `modes` of each view at each cutoff, with the host's.
+/// Returns the frames with their instruction counts when counted.
+fn firmware_matches_host(
+    features: &[&str],
+    modes: &'static [Shadows],
+    counter: Option<&Counter>,
+) -> Option<Vec<(FrameReport, Option<FrameCost>)>> {
+    if !have_qemu() {
+        return None;
+    }
+    let model = bunny()?;
+    let fw = Firmware {
+        target: TARGET,
+        features,
+        model: Some(&model),
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, counter).unwrap();
+    eprintln!("{}", run.transcript());
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0"
+    );
+
+    let bytes = std::fs::read(&model).unwrap();
+    let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+    let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
+    let mut host = Host::new();
+    let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
+        host.render(&grid, spec)
+    })
+    .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));
+
+    let (memory, stack) = check_memory(&run, &elf).unwrap();
+    eprintln!(
+        "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B",
+        fw.name(),
+        memory.flash,
+        memory.ram,
+        memory.psram
+    );
+    assert!(memory.psram >= bytes.len() as u64, "the model is in PSRAM");
+
+    let costs: Vec<Option<FrameCost>> = match &run.marks {
+        Some(marks) => frame_costs(marks).unwrap().into_iter().map(Some).collect(),
+        None => vec![None; reports.len()],
+    };
+    assert_eq!(
+        costs.len(),
+        reports.len(),
+        "one counted frame per frame line"
+    );
+    Some(reports.into_iter().zip(costs).collect())
+}
+
+#[test]
+fn bunny_views_on_arm_match_the_host() {
+    let Some(frames) = firmware_matches_host(&[], &[Shadows::Off], None) else {
+        return;
+    };
+    assert_eq!(frames.len(), STANDARD_VIEWS.len() * CUTOFFS_PX.len());
+}
+
+/// With shadows on, every frame still matches (issue 5: "QEMU CRC equality holds with shadows on"),
+/// and each shadow algorithm costs instructions over the unshadowed frame.
+///
+/// Not asserted, because it does not hold today: one-pass cheaper than two-pass at every frame. It is
+/// at coarse cutoffs and far views (std 8 px: 19 M against 62 M instructions), where the two-pass
+/// light pass walks far more nodes than the view does; at 1 px one-pass fills the map once per drawn
+/// splat and costs more (std: 889 M against 645 M). `arm-bench` prints the figures.
+#[test]
+fn shadowed_bunny_views_on_arm_match_the_host() {
+    if !have_qemu() {
+        return;
+    }
+    let counter = Counter::build().unwrap();
+    let Some(frames) = firmware_matches_host(&["shadows"], &Shadows::ALL, Some(&counter)) else {
+        return;
+    };
+    let cost = |spec: FrameSpec| -> u64 {
+        frames
+            .iter()
+            .find(|(r, _)| r.spec == spec)
+            .and_then(|(_, c)| *c)
+            .unwrap_or_else(|| panic!("no counted frame {spec:?}"))
+            .frame()
+    };
+    for (r, c) in &frames {
+        let c = c.expect("counted");
+        eprintln!(
+            "{:5} {} px {:8}: {:>11} instructions, {:>8} splats, {:>8} nodes",
+            r.spec.view_name(),
+            r.spec.cutoff_px,
+            r.spec.shadows.name(),
+            c.frame(),
+            r.stats.splats,
+            r.stats.nodes_visited
+        );
+    }
+    for (view, (view_name, _)) in STANDARD_VIEWS.iter().enumerate() {
+        for cutoff_px in CUTOFFS_PX {
+            let at = |shadows| {
+                cost(FrameSpec {
+                    view,
+                    cutoff_px,
+                    shadows,
+                })
+            };
+            let (off, one, two) = (at(Shadows::Off), at(Shadows::OnePass), at(Shadows::TwoPass));
+            assert!(
+                off < one && off < two,
+                "{view_name} at {cutoff_px} px: off {off}, one-pass {one}, two-pass {two} instructions"
+            );
+        }
+    }
+}
+
+/// The frames the firmware renders are the simulator's (`pocketsplat render` with default settings,
+/// the golden images' renderer): same CRC, same counts, every view, cutoff and shadow mode.
+#[test]
+fn firmware_frames_are_the_simulators_frames() {
+    let Some(model) = bunny() else {
+        return;
+    };
+    let bytes = std::fs::read(&model).unwrap();
+    let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+    let mut host = Host::new();
+    let mut sim = FrameBuffers::new();
+    for spec in frame_specs_for(&Shadows::ALL) {
+        let ours = host.render(&grid, spec).unwrap();
+        let settings = Settings {
+            view: STANDARD_VIEWS[spec.view].1,
+            cutoff_px: f32::from(spec.cutoff_px),
+            shadows: match spec.shadows {
+                Shadows::Off => ShadowMode::Off,
+                Shadows::OnePass => ShadowMode::OnePass,
+                Shadows::TwoPass => ShadowMode::TwoPass,
+            },
+            shadow_map_size: SHADOW_MAP_SIZE,
+            ..Settings::default()
+        };
+        let theirs = render_tg_frame(&grid, &settings, &mut sim).unwrap();
+        assert_eq!(
+            (ours.crc, ours.stats),
+            (sim.crc(), theirs.stats),
+            "{spec:?}: the firmware's frame differs from the simulator's"
+        );
+    }
+}
