@@ -24,10 +24,14 @@ pub mod normal;
 #[cfg(feature = "qsplat")]
 pub mod qs;
 pub mod raster;
+#[cfg(feature = "scene")]
+pub mod scene;
 pub mod shade;
 #[cfg(feature = "shadows")]
 pub mod shadow;
 pub mod splat;
+#[cfg(feature = "stream")]
+pub mod stream;
 pub mod tg;
 
 #[cfg(feature = "bake")]

@@ -12,7 +12,9 @@ pub mod write;
 
 pub use frame::{FrameError, RenderOptions, TgFrame};
 pub use read::{Header, LevelArrays, LevelDir, TgError, TriGrid, Verify};
-pub use traverse::{render_tg, render_tg_with, NoShadows, ShadowHooks};
+pub use traverse::{
+    render_nodes, render_tg, render_tg_with, NoShadows, NodeData, Resident, ShadowHooks,
+};
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"PSTG";

@@ -65,6 +65,93 @@ impl ShadowHooks for NoShadows {
     }
 }
 
+/// Where the traversal reads a grid's arrays (attributes, child masks, group pointers): the whole
+/// file in memory ([`Resident`]), or blocks streamed into a cache (`crate::stream`, Streaming QSplat
+/// §3.2). The walk asks "are a cell's children here?" before descending; a resident file answers yes
+/// at compile time, so its walk is the same code as before streaming existed.
+pub trait NodeData {
+    /// Whether some blocks may be absent. `false` compiles the residency checks away.
+    const STREAMED: bool;
+    /// ρ and depth of the grid.
+    fn shape(&self) -> (u8, u8);
+    /// Attribute of sample `i` at `level` (0 when it cannot be read).
+    fn attr(&self, level: u8, i: u32) -> u16;
+    /// Child mask of cell `i` at `level`, for ρ ≤ 3 (0 when it cannot be read).
+    fn mask(&self, level: u8, i: u32) -> u32;
+    /// Group pointer of cell `i` at `level` (0 when it cannot be read).
+    fn group(&self, level: u8, i: u32) -> u32;
+    /// Whether everything the descent into the `n` children of cell `index` at `level` reads is
+    /// resident: their attributes and masks (the first at `first_child` on `level + 1`) and the cell's
+    /// group pointer. A streamed source also notes the blocks as used by this frame.
+    fn children_resident(&mut self, level: u8, index: u32, first_child: u32, n: u32) -> bool;
+    /// Asks for the blocks [`NodeData::children_resident`] found missing; the cell's projected
+    /// diameter (Q4 pixels) and centre row (Q4 pixels) set the priority (Streaming QSplat §4.2).
+    fn request_children(
+        &mut self,
+        level: u8,
+        index: u32,
+        first_child: u32,
+        n: u32,
+        size_q4: i32,
+        y_q4: i32,
+    );
+}
+
+/// A memory-resident grid: every block is present, reads are slices cut once per level.
+#[derive(Clone, Copy, Debug)]
+pub struct Resident<'g> {
+    arrays: [LevelArrays<'g>; MAX_LEVELS],
+    rho: u8,
+    depth: u8,
+}
+
+impl<'g> Resident<'g> {
+    /// The arrays of `grid`, cut once.
+    pub fn new(grid: &TriGrid<'g>) -> Self {
+        let h = grid.header();
+        let mut arrays = [LevelArrays::default(); MAX_LEVELS];
+        for (l, a) in arrays.iter_mut().enumerate().take(h.levels()) {
+            *a = grid.arrays(l as u8);
+        }
+        Resident {
+            arrays,
+            rho: h.rho,
+            depth: h.depth,
+        }
+    }
+}
+
+impl NodeData for Resident<'_> {
+    const STREAMED: bool = false;
+    #[inline(always)]
+    fn shape(&self) -> (u8, u8) {
+        (self.rho, self.depth)
+    }
+    #[inline(always)]
+    fn attr(&self, level: u8, i: u32) -> u16 {
+        self.arrays[usize::from(level)].attr(i)
+    }
+    #[inline(always)]
+    fn mask(&self, level: u8, i: u32) -> u32 {
+        let a = &self.arrays[usize::from(level)];
+        if self.rho == 2 {
+            a.mask_u8(i)
+        } else {
+            a.mask_u32(i)
+        }
+    }
+    #[inline(always)]
+    fn group(&self, level: u8, i: u32) -> u32 {
+        self.arrays[usize::from(level)].group(i)
+    }
+    #[inline(always)]
+    fn children_resident(&mut self, _: u8, _: u32, _: u32, _: u32) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn request_children(&mut self, _: u8, _: u32, _: u32, _: u32, _: i32, _: i32) {}
+}
+
 const IDENTITY_ORDER: [u8; MAX_SLOTS] = {
     let mut o = [0u8; MAX_SLOTS];
     let mut i = 0;
@@ -92,7 +179,20 @@ pub fn render_tg_with<S: SplatSink, H: ShadowHooks>(
     hooks: &mut H,
     sink: &mut S,
 ) -> Stats {
-    match Walker::new(grid, frame, hooks, sink) {
+    render_nodes(Resident::new(grid), frame, hooks, sink)
+}
+
+/// [`render_tg_with`] over any [`NodeData`]: the streaming traversal. Where a cell's children are
+/// not resident the descent stops and the cell is drawn, as if the LOD had stopped there, and the
+/// missing blocks are requested (Streaming QSplat §3.2, Fig. 3). The caller checks that the root's
+/// own data is resident.
+pub fn render_nodes<D: NodeData, S: SplatSink, H: ShadowHooks>(
+    data: D,
+    frame: &TgFrame,
+    hooks: &mut H,
+    sink: &mut S,
+) -> Stats {
+    match Walker::new(data, frame, hooks, sink) {
         Some(mut w) => {
             let mask = w.mask(0, 0);
             let root = w.hooks.root();
@@ -107,7 +207,7 @@ pub fn render_tg_with<S: SplatSink, H: ShadowHooks>(
 /// [`ShadowHooks::light_stop`] says; returns the nodes visited.
 pub fn fill_tg<H: ShadowHooks>(grid: &TriGrid<'_>, frame: &TgFrame, hooks: &mut H) -> u32 {
     let mut sink = crate::splat::NullSink::default();
-    match Walker::new(grid, frame, hooks, &mut sink) {
+    match Walker::new(Resident::new(grid), frame, hooks, &mut sink) {
         Some(mut w) => {
             let mask = w.mask(0, 0);
             let root = w.hooks.root();
@@ -118,9 +218,8 @@ pub fn fill_tg<H: ShadowHooks>(grid: &TriGrid<'_>, frame: &TgFrame, hooks: &mut 
     }
 }
 
-struct Walker<'g, 'f, 'h, 's, S, H> {
-    arrays: [LevelArrays<'g>; MAX_LEVELS],
-    octree: bool,
+struct Walker<'f, 'h, 's, D, S, H> {
+    data: D,
     frame: &'f TgFrame,
     hooks: &'h mut H,
     sink: &'s mut S,
@@ -135,28 +234,13 @@ struct Child {
     mask: u32,
 }
 
-impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> {
-    fn new(
-        grid: &TriGrid<'g>,
-        frame: &'f TgFrame,
-        hooks: &'h mut H,
-        sink: &'s mut S,
-    ) -> Option<Self> {
-        if grid.header().rho != frame.rho || grid.header().depth != frame.depth {
+impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D, S, H> {
+    fn new(data: D, frame: &'f TgFrame, hooks: &'h mut H, sink: &'s mut S) -> Option<Self> {
+        if data.shape() != (frame.rho, frame.depth) {
             return None;
         }
-        let mut arrays = [LevelArrays::default(); MAX_LEVELS];
-        for (l, a) in arrays
-            .iter_mut()
-            .enumerate()
-            .take(usize::from(frame.depth) + 1)
-        {
-            *a = grid.arrays(l as u8);
-        }
-        let octree = grid.header().rho == 2;
         Some(Walker {
-            arrays,
-            octree,
+            data,
             frame,
             hooks,
             sink,
@@ -166,12 +250,7 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
 
     #[inline(always)]
     fn mask(&self, level: u8, i: u32) -> u32 {
-        let a = &self.arrays[usize::from(level)];
-        if self.octree {
-            a.mask_u8(i)
-        } else {
-            a.mask_u32(i)
-        }
+        self.data.mask(level, i)
     }
 
     /// The children of a cell in slot order, with their indices and the first index of their own
@@ -188,7 +267,7 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
         let next = level + 1;
         let has_grandchildren = next < self.frame.depth;
         let mut grand = if has_grandchildren {
-            self.arrays[usize::from(level)].group(index)
+            self.data.group(level, index)
         } else {
             0
         };
@@ -251,6 +330,17 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
             self.draw(level, index, c, p);
             return;
         }
+        if D::STREAMED {
+            // Streaming QSplat §3.2: children not here yet, so draw this cell and ask for them.
+            let n = mask.count_ones();
+            if !self.data.children_resident(level, index, first_child, n) {
+                let (_, y_q4, size_q4) = self.project(l, c);
+                self.data
+                    .request_children(level, index, first_child, n, size_q4, y_q4);
+                self.draw(level, index, c, p);
+                return;
+            }
+        }
         let next = level + 1;
         let disp = &f.disp[usize::from(next)];
         if H::ORDERED {
@@ -278,7 +368,7 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
             // Children in slot order; the group pointer finds the grandchildren.
             let has_grandchildren = next < f.depth;
             let mut grand = if has_grandchildren {
-                self.arrays[l].group(index)
+                self.data.group(level, index)
             } else {
                 0
             };
@@ -314,7 +404,13 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
     fn cast_only(&mut self, level: u8, index: u32, mask: u32, first_child: u32, p: H::Pos) {
         self.stats.nodes_visited += 1;
         let l = usize::from(level);
-        if level == self.frame.depth || self.hooks.light_stop(l) {
+        if level == self.frame.depth
+            || self.hooks.light_stop(l)
+            || (D::STREAMED
+                && !self
+                    .data
+                    .children_resident(level, index, first_child, mask.count_ones()))
+        {
             self.hooks.casts(l, p);
             return;
         }
@@ -332,16 +428,36 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
         }
     }
 
+    /// Screen centre and diameter (Q4 pixels) of a cell at level `l` with projected centre `c`: one
+    /// reciprocal look-up and three multiplies.
+    #[inline(always)]
+    fn project(&self, l: usize, c: [i32; 3]) -> (i32, i32, i32) {
+        let [x, y, w] = c;
+        let (r, shift) = recip(w as u32);
+        let r = i64::from(r);
+        let sh = shift - SUBPIXEL_BITS;
+        let half = 1i64 << (sh - 1);
+        let x_q4 = ((i64::from(x) * r + half) >> sh) as i32;
+        let y_q4 = ((i64::from(y) * r + half) >> sh) as i32;
+        let (k, kshift) = self.frame.size_k[l];
+        let size_q4 = if shift > kshift {
+            ((u64::from(k) * r as u64) >> (shift - kshift)).min(i32::MAX as u64) as i32
+        } else {
+            i32::MAX
+        };
+        (x_q4, y_q4, size_q4)
+    }
+
     #[inline]
     fn draw(&mut self, level: u8, index: u32, c: [i32; 3], p: H::Pos) {
         let f = self.frame;
-        let [x, y, w] = c;
+        let [_, _, w] = c;
         let l = usize::from(level);
         if w < f.near_w {
             self.hooks.casts(l, p);
             return;
         }
-        let attr = self.arrays[l].attr(index);
+        let attr = self.data.attr(level, index);
         let code = usize::from(attr & 0x1FFF);
         if f.backface[code / 32] >> (code % 32) & 1 != 0 {
             self.stats.backfacing += 1;
@@ -349,18 +465,7 @@ impl<'g, 'f, 'h, 's, S: SplatSink, H: ShadowHooks> Walker<'g, 'f, 'h, 's, S, H> 
             return;
         }
         let shadowed = self.hooks.drawn(l, p, attr);
-        let (r, shift) = recip(w as u32);
-        let r = i64::from(r);
-        let sh = shift - SUBPIXEL_BITS;
-        let half = 1i64 << (sh - 1);
-        let x_q4 = ((i64::from(x) * r + half) >> sh) as i32;
-        let y_q4 = ((i64::from(y) * r + half) >> sh) as i32;
-        let (k, kshift) = f.size_k[l];
-        let size_q4 = if shift > kshift {
-            ((u64::from(k) * r as u64) >> (shift - kshift)).min(i32::MAX as u64) as i32
-        } else {
-            i32::MAX
-        };
+        let (x_q4, y_q4, size_q4) = self.project(l, c);
         let dz = (w - f.depth_w0).max(0) as u64;
         let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
         self.stats.splats += 1;

@@ -1,0 +1,76 @@
+//! `pocketsplat render INPUT --stream`: draw a `.tg` file or URL through the block cache, reading at
+//! most `--io-budget` bytes per frame, until a frame misses nothing; write that frame.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use serde_json::json;
+
+use super::{stream_render, FileSource, HttpSource, StreamOptions, StreamOutcome};
+use crate::image;
+use crate::render::{FrameBuffers, Settings};
+
+/// The `render --stream` command: `input` is a path or an `http://` URL.
+///
+/// # Errors
+/// When the input cannot be opened or read, is not a `.tg` file, or does not converge; no output is
+/// written then.
+pub fn run(
+    input: &str,
+    out: &Path,
+    settings: &Settings,
+    opts: &StreamOptions,
+    stats_json: bool,
+) -> Result<()> {
+    let t = Instant::now();
+    let mut fb = FrameBuffers::new();
+    let (outcome, http) = if HttpSource::is_url(input) {
+        let mut src = HttpSource::new(input)?;
+        let o =
+            stream_render(&mut src, settings, opts, &mut fb).with_context(|| input.to_string())?;
+        (o, Some(src.counters))
+    } else {
+        let mut src =
+            FileSource::open(Path::new(input)).with_context(|| format!("cannot open {input}"))?;
+        let o =
+            stream_render(&mut src, settings, opts, &mut fb).with_context(|| input.to_string())?;
+        (o, None)
+    };
+    image::write_rgb565_png(out, fb.pixels())?;
+    let StreamOutcome {
+        frames,
+        counters: c,
+        stats: s,
+        file_bytes,
+        ..
+    } = &outcome;
+    if stats_json {
+        let mut j = json!({
+            "input": input, "renderer": "tg-stream", "frames": frames,
+            "bytes_read": c.bytes_read, "file_bytes": file_bytes,
+            "read_errors": c.read_errors, "crc_errors": c.crc_errors, "evictions": c.evictions,
+            "cache_blocks": outcome.cache_blocks, "io_budget": opts.io_budget,
+            "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
+            "crc": format!("{:08x}", fb.crc()), "ms": t.elapsed().as_secs_f64() * 1e3,
+        });
+        if let Some(h) = http {
+            j["http"] = json!({
+                "requests": h.requests, "connections": h.connections,
+                "sent": h.sent, "received": h.received, "body": h.body,
+            });
+        }
+        println!("{j}");
+    } else {
+        eprintln!(
+            "wrote {} after {frames} frames: read {} of {file_bytes} bytes ({:.1} %), {} read errors, {} CRC failures, in {:.1} ms",
+            out.display(),
+            c.bytes_read,
+            100.0 * c.bytes_read as f64 / (*file_bytes).max(1) as f64,
+            c.read_errors,
+            c.crc_errors,
+            t.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,361 @@
+//! HTTP/1.1 byte ranges from any standard web server, over one persistent connection (Streaming
+//! QSplat §3.5: "ranges of the original file … so we may stream models from any standard web server").
+//!
+//! A small client of our own rather than a general one: it sends `GET` with `Range: bytes=a-b` on a
+//! kept-alive `TcpStream`, accepts only `206 Partial Content` with the exact `Content-Range` and
+//! `Content-Length` asked for, and counts every byte on the wire, which is the figure the streaming
+//! report needs. A connection the server closed is reopened once per read.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpStream, ToSocketAddrs};
+use std::time::Duration;
+
+use pocketsplat_core::stream::ChunkSource;
+
+/// Longest response head accepted.
+const MAX_HEAD: usize = 16 * 1024;
+/// Connect, read and write timeout.
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Why a range could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum HttpError {
+    /// The URL is not `http://host[:port]/path`.
+    #[error("{0:?} is not an http://host[:port]/path URL")]
+    BadUrl(String),
+    /// Connecting, sending or receiving failed.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    /// The server answered with another status than 206 (200 means it ignores ranges).
+    #[error("HTTP status {0} (expected 206 Partial Content)")]
+    Status(u16),
+    /// The response is not well-formed HTTP/1.1, or not the range asked for.
+    #[error("bad response: {0}")]
+    BadResponse(String),
+}
+
+/// Counts of an [`HttpSource`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HttpCounters {
+    /// Range requests sent.
+    pub requests: u64,
+    /// TCP connections opened.
+    pub connections: u64,
+    /// Bytes sent (request lines and headers).
+    pub sent: u64,
+    /// Bytes received: response heads and bodies.
+    pub received: u64,
+    /// Body bytes received.
+    pub body: u64,
+}
+
+/// One file on a web server, read by byte ranges.
+#[derive(Debug)]
+pub struct HttpSource {
+    host: String,
+    port: u16,
+    path: String,
+    conn: Option<BufReader<TcpStream>>,
+    /// What went over the wire so far.
+    pub counters: HttpCounters,
+}
+
+impl HttpSource {
+    /// A source for `url` (`http://host[:port]/path`); connects on the first read.
+    ///
+    /// # Errors
+    /// [`HttpError::BadUrl`] for anything else (no TLS).
+    pub fn new(url: &str) -> Result<Self, HttpError> {
+        let bad = || HttpError::BadUrl(url.to_string());
+        let rest = url.strip_prefix("http://").ok_or_else(bad)?;
+        let (authority, path) = match rest.find('/') {
+            Some(i) => (&rest[..i], &rest[i..]),
+            None => (rest, "/"),
+        };
+        let (host, port) = match authority.rsplit_once(':') {
+            Some((h, p)) => (h, p.parse::<u16>().map_err(|_| bad())?),
+            None => (authority, 80),
+        };
+        if host.is_empty() || path.contains(char::is_whitespace) {
+            return Err(bad());
+        }
+        Ok(Self {
+            host: host.to_string(),
+            port,
+            path: path.to_string(),
+            conn: None,
+            counters: HttpCounters::default(),
+        })
+    }
+
+    /// Whether `s` looks like a URL this source takes.
+    pub fn is_url(s: &str) -> bool {
+        s.starts_with("http://")
+    }
+
+    fn connect(&mut self) -> Result<&mut BufReader<TcpStream>, HttpError> {
+        if self.conn.is_none() {
+            let addr = (self.host.as_str(), self.port)
+                .to_socket_addrs()?
+                .next()
+                .ok_or_else(|| HttpError::BadUrl(format!("{}:{}", self.host, self.port)))?;
+            let s = TcpStream::connect_timeout(&addr, TIMEOUT)?;
+            s.set_read_timeout(Some(TIMEOUT))?;
+            s.set_write_timeout(Some(TIMEOUT))?;
+            s.set_nodelay(true)?;
+            self.counters.connections += 1;
+            self.conn = Some(BufReader::with_capacity(64 * 1024, s));
+        }
+        Ok(self.conn.as_mut().expect("connected above"))
+    }
+
+    /// The file's length, from the `Content-Range` of a one-byte range.
+    ///
+    /// # Errors
+    /// As for reads.
+    pub fn content_length(&mut self) -> Result<u64, HttpError> {
+        let mut b = [0u8; 1];
+        self.range(0, &mut b)
+    }
+
+    /// Reads `buf.len()` bytes at `offset`; returns the file's total length.
+    fn range(&mut self, offset: u64, buf: &mut [u8]) -> Result<u64, HttpError> {
+        // A kept-alive connection may have been closed by the server since the last request: on an
+        // I/O error before any of the response arrived, reconnect once.
+        let reused = self.conn.is_some();
+        match self.try_range(offset, buf) {
+            Err(HttpError::Io(_)) if reused => {
+                self.conn = None;
+                self.try_range(offset, buf)
+            }
+            r => r,
+        }
+    }
+
+    fn try_range(&mut self, offset: u64, buf: &mut [u8]) -> Result<u64, HttpError> {
+        if buf.is_empty() {
+            return Err(HttpError::BadResponse("empty range".into()));
+        }
+        let last = offset + buf.len() as u64 - 1;
+        let request = format!(
+            "GET {} HTTP/1.1\r\nHost: {}:{}\r\nRange: bytes={offset}-{last}\r\nUser-Agent: pocketsplat\r\n\r\n",
+            self.path, self.host, self.port
+        );
+        let result = self.exchange(request.as_bytes(), offset, last, buf);
+        if result.is_err() {
+            // Unknown state of the stream: never reuse it.
+            self.conn = None;
+        }
+        result
+    }
+
+    fn exchange(
+        &mut self,
+        request: &[u8],
+        offset: u64,
+        last: u64,
+        buf: &mut [u8],
+    ) -> Result<u64, HttpError> {
+        let conn = self.connect()?;
+        conn.get_mut().write_all(request)?;
+        let mut head = 0usize;
+        let mut line = String::new();
+        let mut read_line = |conn: &mut BufReader<TcpStream>, line: &mut String| {
+            line.clear();
+            let n = conn.by_ref().take(8192).read_line(line)?;
+            head += n;
+            if n == 0 {
+                return Err(HttpError::Io(std::io::ErrorKind::UnexpectedEof.into()));
+            }
+            if head > MAX_HEAD || !line.ends_with('\n') {
+                return Err(HttpError::BadResponse("response head too long".into()));
+            }
+            Ok::<(), HttpError>(())
+        };
+        read_line(conn, &mut line)?;
+        let status = parse_status(&line)?;
+        let (mut length, mut range, mut close) = (None, None, false);
+        loop {
+            read_line(conn, &mut line)?;
+            let l = line.trim_end();
+            if l.is_empty() {
+                break;
+            }
+            let Some((name, value)) = l.split_once(':') else {
+                return Err(HttpError::BadResponse(format!("header line {l:?}")));
+            };
+            let value = value.trim();
+            match name.trim().to_ascii_lowercase().as_str() {
+                "content-length" => {
+                    length =
+                        Some(value.parse::<u64>().map_err(|_| {
+                            HttpError::BadResponse(format!("Content-Length {value:?}"))
+                        })?)
+                }
+                "content-range" => range = Some(value.to_string()),
+                "connection" => close = value.eq_ignore_ascii_case("close"),
+                "transfer-encoding" => {
+                    return Err(HttpError::BadResponse(format!(
+                        "Transfer-Encoding {value:?} on a range"
+                    )))
+                }
+                _ => {}
+            }
+        }
+        if status != 206 {
+            return Err(HttpError::Status(status));
+        }
+        if length != Some(buf.len() as u64) {
+            return Err(HttpError::BadResponse(format!(
+                "Content-Length {length:?} for a range of {} bytes",
+                buf.len()
+            )));
+        }
+        let total = parse_content_range(range.as_deref(), offset, last)?;
+        conn.read_exact(buf)?;
+        let head = head as u64;
+        self.counters.requests += 1;
+        self.counters.sent += request.len() as u64;
+        self.counters.received += head + buf.len() as u64;
+        self.counters.body += buf.len() as u64;
+        if close {
+            self.conn = None;
+        }
+        Ok(total)
+    }
+}
+
+fn parse_status(line: &str) -> Result<u16, HttpError> {
+    let mut parts = line.split_whitespace();
+    match (parts.next(), parts.next().map(str::parse::<u16>)) {
+        (Some(v), Some(Ok(code))) if v.starts_with("HTTP/1.") => Ok(code),
+        _ => Err(HttpError::BadResponse(format!(
+            "status line {:?}",
+            line.trim_end()
+        ))),
+    }
+}
+
+/// Checks `bytes a-b/total` against the range asked for; returns `total`.
+fn parse_content_range(value: Option<&str>, offset: u64, last: u64) -> Result<u64, HttpError> {
+    let bad =
+        || HttpError::BadResponse(format!("Content-Range {value:?} for bytes {offset}-{last}"));
+    let v = value.ok_or_else(bad)?;
+    let rest = v.strip_prefix("bytes ").ok_or_else(bad)?;
+    let (span, total) = rest.split_once('/').ok_or_else(bad)?;
+    let (a, b) = span.split_once('-').ok_or_else(bad)?;
+    let (a, b) = (a.parse::<u64>(), b.parse::<u64>());
+    if a != Ok(offset) || b != Ok(last) {
+        return Err(bad());
+    }
+    total.parse::<u64>().map_err(|_| bad())
+}
+
+impl ChunkSource for HttpSource {
+    type Error = HttpError;
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), HttpError> {
+        self.range(offset, buf).map(|_| ())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls() {
+        let s = HttpSource::new("http://127.0.0.1:8080/models/dragon.tg").unwrap();
+        assert_eq!(
+            (s.host.as_str(), s.port, s.path.as_str()),
+            ("127.0.0.1", 8080, "/models/dragon.tg")
+        );
+        let s = HttpSource::new("http://example.invalid").unwrap();
+        assert_eq!((s.port, s.path.as_str()), (80, "/"));
+        for bad in [
+            "https://x/y",
+            "http://:80/a",
+            "http://x:port/a",
+            "ftp://x",
+            "http://x/a b",
+        ] {
+            assert!(HttpSource::new(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn content_ranges() {
+        assert_eq!(
+            parse_content_range(Some("bytes 0-511/4096"), 0, 511).unwrap(),
+            4096
+        );
+        for bad in [
+            None,
+            Some("bytes 0-510/4096"),
+            Some("bytes 1-511/4096"),
+            Some("bytes */4096"),
+            Some("items 0-511/4096"),
+            Some("bytes 0-511/x"),
+        ] {
+            assert!(parse_content_range(bad, 0, 511).is_err(), "{bad:?}");
+        }
+        assert_eq!(
+            parse_status("HTTP/1.1 206 Partial Content\r\n").unwrap(),
+            206
+        );
+        assert!(parse_status("SPDY 206\r\n").is_err());
+    }
+
+    /// A one-connection server on loopback that answers two ranges on the same connection, then
+    /// one with `Connection: close`, then closes; the client must reconnect for the fourth.
+    #[test]
+    fn keeps_the_connection_alive_and_reconnects_when_closed() {
+        use std::net::TcpListener;
+        let file: Vec<u8> = (0..10_000u32).map(|i| (i % 251) as u8).collect();
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let served = file.clone();
+        let server = std::thread::spawn(move || {
+            for (conn_no, per_conn) in [(0, 3), (1, 1)] {
+                let (s, _) = listener.accept().unwrap();
+                let mut r = BufReader::new(s.try_clone().unwrap());
+                let mut w = s;
+                for k in 0..per_conn {
+                    let mut range = None;
+                    loop {
+                        let mut l = String::new();
+                        r.read_line(&mut l).unwrap();
+                        if l.trim().is_empty() {
+                            break;
+                        }
+                        if let Some(v) = l.strip_prefix("Range: bytes=") {
+                            let (a, b) = v.trim().split_once('-').unwrap();
+                            range =
+                                Some((a.parse::<usize>().unwrap(), b.parse::<usize>().unwrap()));
+                        }
+                    }
+                    let (a, b) = range.unwrap();
+                    let close = conn_no == 0 && k == per_conn - 1;
+                    write!(
+                        w,
+                        "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/{}\r\n{}\r\n",
+                        b + 1 - a,
+                        served.len(),
+                        if close { "Connection: close\r\n" } else { "" }
+                    )
+                    .unwrap();
+                    w.write_all(&served[a..=b]).unwrap();
+                }
+            }
+        });
+        let mut src = HttpSource::new(&format!("http://127.0.0.1:{port}/f")).unwrap();
+        for (off, len) in [(0u64, 512usize), (4096, 1000), (9000, 1000), (17, 3)] {
+            let mut buf = vec![0u8; len];
+            src.read_at(off, &mut buf).unwrap();
+            assert_eq!(buf, file[off as usize..off as usize + len]);
+        }
+        server.join().unwrap();
+        assert_eq!(src.counters.requests, 4);
+        assert_eq!(src.counters.connections, 2);
+        assert_eq!(src.counters.body, 512 + 1000 + 1000 + 3);
+    }
+}

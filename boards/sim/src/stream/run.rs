@@ -1,0 +1,205 @@
+//! The streaming frame loop on the desktop: memory for a [`TgStream`], one frame drawn from what is
+//! resident, and `render --stream` (draw, serve the budget, repeat until a frame misses nothing).
+
+use anyhow::{bail, Context, Result};
+use pocketsplat_core::camera::{self, Camera, Placement};
+use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::stream::{
+    read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, TgStream,
+};
+use pocketsplat_core::tg::{Header, RenderOptions, TgFrame};
+
+use crate::render::{FrameBuffers, Settings, ShadowMode};
+
+/// Largest block a `.tg` file has.
+const MAX_BLOCK: usize = 1 << 16;
+
+/// Heap memory for a [`TgStream`] (on a device these are statics sized for the scene).
+#[derive(Debug)]
+pub struct OwnedStream {
+    /// The header, read once to size the rest.
+    pub header: Header,
+    data: Vec<u8>,
+    slots: Vec<SlotEntry>,
+    blocks: Vec<BlockEntry>,
+}
+
+impl OwnedStream {
+    /// Reads the header of the `.tg` file on `src` and allocates a cache of `cache_bytes` (rounded
+    /// down to whole blocks, at least 4 blocks) and one table entry per block.
+    ///
+    /// # Errors
+    /// When the header cannot be read or is invalid.
+    pub fn new<C: ChunkSource + ?Sized>(src: &mut C, cache_bytes: usize) -> Result<Self> {
+        let mut scratch = vec![0u8; MAX_BLOCK];
+        let (header, _, _) =
+            read_tg_header(src, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let bs = header.block_size();
+        let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
+        Ok(Self {
+            header,
+            data: vec![0u8; slots * bs],
+            slots: vec![SlotEntry::EMPTY; slots],
+            blocks: vec![BlockEntry::EMPTY; header.blocks as usize],
+        })
+    }
+
+    /// Opens the stream over this memory.
+    ///
+    /// # Errors
+    /// When the header or the CRC table cannot be read.
+    pub fn open<C: ChunkSource + ?Sized>(&mut self, src: &mut C) -> Result<TgStream<'_>> {
+        TgStream::open(src, &mut self.data, &mut self.slots, &mut self.blocks)
+            .map_err(|e| anyhow::anyhow!("{e}"))
+    }
+
+    /// Bytes of the cache.
+    pub fn cache_bytes(&self) -> usize {
+        self.data.len()
+    }
+}
+
+/// The camera of `settings` for the stream's model.
+pub fn camera_for(stream: &TgStream<'_>, settings: &Settings) -> Camera {
+    settings.camera(stream.header().bounds)
+}
+
+/// Draws one frame from what is resident into `out` (cleared first), queueing what is missing.
+///
+/// # Errors
+/// When the frame cannot be set up, or shadows are asked for (not streamed yet).
+pub fn stream_frame(
+    stream: &mut TgStream<'_>,
+    cam: &Camera,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+) -> Result<Stats> {
+    if settings.shadows != ShadowMode::Off {
+        bail!("--stream draws without shadows for now");
+    }
+    let opts = RenderOptions {
+        cutoff_px: settings.cutoff_px,
+        kernel: settings.kernel,
+        ..RenderOptions::default()
+    };
+    let frame = TgFrame::new(stream.header(), &Placement::IDENTITY, cam, &opts)?;
+    table.update(
+        &[settings.material],
+        settings.light_dir(),
+        camera::scale(cam.forward, -1.0),
+    );
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+    fb.clear(0);
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table,
+        kernel: settings.kernel,
+    };
+    Ok(stream.render(&frame, &mut sink))
+}
+
+/// How `render --stream` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StreamOptions {
+    /// Bytes read per frame at most (rounded up to one block).
+    pub io_budget: u32,
+    /// Bytes of block cache.
+    pub cache_bytes: usize,
+    /// Give up after this many frames.
+    pub max_frames: u32,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        Self {
+            io_budget: 64 * 1024,
+            cache_bytes: 16 << 20,
+            max_frames: 100_000,
+        }
+    }
+}
+
+/// What a streamed render did.
+#[derive(Clone, Debug, Default)]
+pub struct StreamOutcome {
+    /// Frames drawn, the converged one included.
+    pub frames: u32,
+    /// The stream's counts (header and CRC table reads included).
+    pub counters: StreamCounters,
+    /// What each frame's serve read.
+    pub per_frame: Vec<ServeReport>,
+    /// Traversal counts of the final frame.
+    pub stats: Stats,
+    /// Bytes in the file.
+    pub file_bytes: u64,
+    /// Blocks resident at the end, and the cache's capacity.
+    pub resident_blocks: usize,
+    /// Capacity of the cache, blocks.
+    pub cache_blocks: usize,
+}
+
+/// Streams the `.tg` on `src` with a fixed camera until a frame misses nothing, leaving that frame
+/// (the one the resident file gives) in `out`.
+///
+/// # Errors
+/// When the header or CRC table cannot be read, the frame cannot be set up, or it does not
+/// converge within `opts.max_frames` (a block that keeps failing).
+pub fn stream_render<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    settings: &Settings,
+    opts: &StreamOptions,
+    out: &mut FrameBuffers,
+) -> Result<StreamOutcome> {
+    let mut mem = OwnedStream::new(src, opts.cache_bytes)?;
+    let file_bytes = u64::from(mem.header.blocks) << mem.header.block_log2;
+    let mut stream = mem.open(src)?;
+    let cam = camera_for(&stream, settings);
+    let mut table = Box::new(ShadingTable::<1>::new());
+    let mut outcome = StreamOutcome {
+        file_bytes,
+        ..StreamOutcome::default()
+    };
+    loop {
+        outcome.stats = stream_frame(&mut stream, &cam, settings, &mut table, out)?;
+        outcome.frames += 1;
+        if stream.converged() {
+            break;
+        }
+        if outcome.frames >= opts.max_frames {
+            let c = stream.counters();
+            bail!(
+                "did not converge in {} frames: {} blocks still missing ({} read errors, {} CRC failures)",
+                outcome.frames,
+                stream.missing(),
+                c.read_errors,
+                c.crc_errors
+            );
+        }
+        outcome.per_frame.push(stream.serve(src, opts.io_budget));
+    }
+    outcome.counters = *stream.counters();
+    outcome.resident_blocks = stream.cache().resident();
+    outcome.cache_blocks = stream.cache().capacity();
+    Ok(outcome)
+}
+
+/// Parses a byte count with an optional K or M suffix (powers of 1024).
+///
+/// # Errors
+/// When it is not one.
+pub fn parse_bytes(what: &str, text: &str) -> Result<usize> {
+    let t = text.trim();
+    let (num, mul) = match t.chars().last() {
+        Some('k' | 'K') => (&t[..t.len() - 1], 1024),
+        Some('m' | 'M') => (&t[..t.len() - 1], 1024 * 1024),
+        _ => (t, 1),
+    };
+    let n: usize = num
+        .parse()
+        .with_context(|| format!("{what} {text:?}: not a byte count (e.g. 65536, 64K, 4M)"))?;
+    n.checked_mul(mul)
+        .with_context(|| format!("{what} {text:?}: too large"))
+}

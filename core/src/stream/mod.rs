@@ -1,0 +1,155 @@
+//! Streaming: drawing a model while it is read in blocks from flash, an SD card, a file or a web
+//! server (Rusinkiewicz & Levoy, *Streaming QSplat*, §3; DESIGN.md "The way data flows").
+//!
+//! - [`ChunkSource`] is the one thing a medium must do: "read these bytes". Flash is a slice
+//!   ([`MemSource`], zero copy through [`ChunkSource::mapped`]); the simulator reads a file or HTTP
+//!   byte ranges; an SD card goes through embedded-sdmmc (`sdmmc` feature, [`sdmmc`]).
+//! - [`BlockCache`] holds a fixed number of file blocks in caller-provided memory (no heap; its size
+//!   is chosen per scene), and evicts the finest, least recently used blocks first so that the coarse
+//!   levels stay resident.
+//! - [`TgStream`] draws a `.tg` from whatever is resident: where a cell's children are absent the
+//!   descent stops and the cell is drawn (§3.2), and the missing blocks are queued by the Streaming
+//!   QSplat priority, log-quantized splat size then screen row (§4.2). [`TgStream::serve`] reads the
+//!   best of them within an I/O budget per frame; the queue is cleared every frame (§3.4); when no
+//!   visible block is missing it prefetches the rest of the file coarse-to-fine.
+//! - A block that fails its CRC, or whose read fails, is absent: it is retried later with an
+//!   exponential backoff, counted in [`StreamCounters`], and the frame is drawn coarser meanwhile.
+//!
+//! ```
+//! use pocketsplat_core::stream::{ChunkSource, MemSource};
+//! let file = [1u8, 2, 3, 4];
+//! let mut src = MemSource::new(&file);
+//! let mut buf = [0u8; 2];
+//! src.read_at(1, &mut buf).unwrap();
+//! assert_eq!(buf, [2, 3]);
+//! assert!(src.mapped().is_some()); // flash: draw it in place, no cache needed
+//! ```
+#![deny(clippy::float_arithmetic)]
+
+mod cache;
+mod tg;
+pub mod torture;
+
+#[cfg(feature = "sdmmc")]
+pub mod sdmmc;
+
+pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
+pub use tg::{
+    read_tg_header, size_class, stream_priority, ServeReport, StreamCounters, TgStream,
+    QUEUE_CAPACITY,
+};
+
+use crate::tg::TgError;
+
+/// Reads bytes of one file from a medium: the one trait every streaming source implements.
+pub trait ChunkSource {
+    /// What a failed read reports.
+    type Error: core::fmt::Debug;
+
+    /// Fills `buf` with the file's bytes `offset..offset + buf.len()`.
+    ///
+    /// # Errors
+    /// When the medium fails or the range runs past the end of the file. The caller treats the
+    /// block as absent and tries again later.
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error>;
+
+    /// The whole file, when it is already in addressable memory (memory-mapped flash): a reader may
+    /// then draw from it in place ([`crate::tg::TriGrid::open`]) with no cache and no copy.
+    fn mapped(&self) -> Option<&[u8]> {
+        None
+    }
+}
+
+impl<T: ChunkSource + ?Sized> ChunkSource for &mut T {
+    type Error = T::Error;
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
+        (**self).read_at(offset, buf)
+    }
+    fn mapped(&self) -> Option<&[u8]> {
+        (**self).mapped()
+    }
+}
+
+/// A file in addressable memory: memory-mapped flash, or a file read into RAM.
+#[derive(Clone, Copy, Debug)]
+pub struct MemSource<'a> {
+    bytes: &'a [u8],
+}
+
+impl<'a> MemSource<'a> {
+    /// The file `bytes`.
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Self { bytes }
+    }
+}
+
+/// A read past the end of a [`MemSource`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OutOfRange {
+    /// Start of the read.
+    pub offset: u64,
+    /// Its length.
+    pub len: usize,
+}
+
+impl ChunkSource for MemSource<'_> {
+    type Error = OutOfRange;
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), OutOfRange> {
+        let err = OutOfRange {
+            offset,
+            len: buf.len(),
+        };
+        let start = usize::try_from(offset).map_err(|_| err)?;
+        let end = start.checked_add(buf.len()).ok_or(err)?;
+        buf.copy_from_slice(self.bytes.get(start..end).ok_or(err)?);
+        Ok(())
+    }
+    fn mapped(&self) -> Option<&[u8]> {
+        Some(self.bytes)
+    }
+}
+
+/// Why a stream cannot be opened (a frame never fails: absent blocks are drawn coarser).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StreamError<E> {
+    /// The medium failed on the header or the CRC table, every attempt.
+    Device(E),
+    /// The header is not a valid `.tg` header, or the CRC table fails its check every attempt.
+    Format(TgError),
+    /// The per-block table given has fewer entries than the file has blocks.
+    TooManyBlocks {
+        /// Blocks in the file.
+        blocks: u32,
+        /// Entries given.
+        capacity: u32,
+    },
+    /// The cache memory holds fewer than [`cache::MIN_SLOTS`] blocks of this file.
+    CacheTooSmall {
+        /// The file's block size, bytes.
+        block_size: u32,
+        /// Blocks the cache memory holds.
+        slots: u32,
+    },
+}
+
+impl<E: core::fmt::Debug> core::fmt::Display for StreamError<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            StreamError::Device(e) => write!(f, "read failed: {e:?}"),
+            StreamError::Format(e) => write!(f, "{e}"),
+            StreamError::TooManyBlocks { blocks, capacity } => write!(
+                f,
+                "the file has {blocks} blocks but the block table holds {capacity}"
+            ),
+            StreamError::CacheTooSmall { block_size, slots } => write!(
+                f,
+                "the cache holds {slots} blocks of {block_size} bytes; it needs at least {}",
+                cache::MIN_SLOTS
+            ),
+        }
+    }
+}
+
+impl<E: core::fmt::Debug> core::error::Error for StreamError<E> {}
