@@ -2,6 +2,7 @@
 //! output, reports and the `pocketsplat` command line live here; everything that runs on the device
 //! lives in `pocketsplat-core`.
 
+pub mod bvh;
 pub mod cmd;
 pub mod demo;
 pub mod fsutil;
@@ -12,5 +13,7 @@ pub mod qsplat;
 pub mod reference;
 pub mod render;
 pub mod report;
+pub mod scene;
+pub mod stream;
 #[cfg(feature = "window")]
 pub mod window;

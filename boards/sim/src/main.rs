@@ -5,8 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::scene::PackShadows;
 use pocketsplat_sim::render::ShadowMode;
-use pocketsplat_sim::{cmd, report};
+use pocketsplat_sim::{cmd, report, scene};
 
 #[derive(Parser)]
 #[command(
@@ -21,9 +22,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Bake a triangle mesh (PLY, ASCII or binary, optionally gzipped) into a point file.
+    /// Bake a triangle mesh (PLY, ASCII or binary, optionally gzipped) into a point file, or a
+    /// scene file (`.toml`, see boards/sim/scenes/) into a scene pack.
     Bake {
-        /// The mesh.
+        /// The mesh, or a scene file (`.toml`: the other options are then the scene's).
         mesh: PathBuf,
         /// Output file.
         #[arg(short, long)]
@@ -41,7 +43,8 @@ enum Command {
         #[arg(long, default_value = "tg")]
         format: String,
     },
-    /// Describe a point file: header, samples and α per level, size per leaf sample.
+    /// Describe a point file (header, samples and α per level, size per leaf sample) or a scene
+    /// pack (per object what is present and what was left out, and the RAM a frame needs).
     Info {
         /// The file.
         file: PathBuf,
@@ -51,7 +54,9 @@ enum Command {
     },
     /// Render a point file (integer renderer) or a mesh (f64 reference renderer) to a PNG.
     Render {
-        /// A `.tg` file, or a PLY mesh for the reference renderer.
+        /// A `.tg` file, a scene pack (its light, shadows and field of view unless given here;
+        /// `--view` may also name one of its views or `path@SECONDS`), or a PLY mesh for the
+        /// reference renderer.
         input: PathBuf,
         /// Output PNG.
         #[arg(short, long)]
@@ -71,6 +76,11 @@ enum Command {
         /// Light direction AZ,EL in degrees (world, same convention as views).
         #[arg(long, default_value = "-40,60", allow_hyphen_values = true)]
         light: String,
+        /// A point light instead of `--light`: X,Y,Z in bounding-sphere radii from the model's
+        /// centre, outside the sphere around its bounding cube. Its shadows are two-pass; shading
+        /// uses the direction from the centre.
+        #[arg(long, allow_hyphen_values = true, value_name = "X,Y,Z")]
+        light_pos: Option<String>,
         /// Shadows from the light: none, one-pass (light-ordered traversal) or two-pass (shadow
         /// map first). For a mesh, the reference renderer casts exact shadow rays instead.
         #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
@@ -192,6 +202,23 @@ enum ReportKind {
         #[arg(long)]
         quick: bool,
     },
+    /// Shadows against exact ray-cast shadows of the mesh: per standard view of the bunny and the
+    /// dragon (tri-grid depth 6), off / two-pass / one-pass: lit/shadowed disagreement, PSNR and
+    /// host time per frame. Prints a markdown table.
+    Shadows {
+        /// Folder with the Stanford models (default: $POCKETSPLAT_MODELS or ../shared/models).
+        #[arg(long)]
+        models: Option<PathBuf>,
+        /// Timed repeats per frame (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// The bunny only, at depth 5 (a quick check, not the paper's level 5).
+        #[arg(long)]
+        quick: bool,
+        /// Shadow-map side, texels.
+        #[arg(long, default_value_t = pocketsplat_sim::render::DEFAULT_SHADOW_MAP_SIZE)]
+        map: usize,
+    },
 }
 
 /// `$POCKETSPLAT_MODELS`, else `../shared/models`.
@@ -204,6 +231,9 @@ fn default_models() -> PathBuf {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         None => pocketsplat_sim::demo::run(),
+        Some(Command::Bake { mesh, out, .. }) if scene::cmd::is_scene_file(&mesh) => {
+            scene::cmd::bake(&mesh, &out)
+        }
         Some(Command::Bake {
             mesh,
             out,
@@ -212,6 +242,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             block_size,
             format,
         }) => cmd::bake::run(&mesh, &out, rho, depth, block_size, &format),
+        Some(Command::Info { file, json }) if scene::cmd::is_pack(&file) => {
+            scene::cmd::info(&file, json)
+        }
         Some(Command::Info { file, json }) => cmd::info::run(&file, json),
         Some(Command::Render {
             input,
@@ -221,6 +254,45 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cutoff,
             kernel,
             light,
+            shadows,
+            stats_json,
+            ..
+        }) if scene::cmd::is_pack(&input) => {
+            // A pack brings its own light, shadows and field of view: flags left out keep them.
+            let given = scene::cmd::flag_given;
+            let args = scene::cmd::RenderArgs {
+                view,
+                fov: given("--fov").then_some(fov),
+                cutoff_px: cutoff,
+                kernel: match kernel {
+                    KernelArg::Square => Kernel::Square,
+                    KernelArg::Round => Kernel::Round,
+                },
+                light: given("--light").then_some(light),
+                shadows: given("--shadows").then_some(match shadows {
+                    ShadowArg::Off => PackShadows::Off,
+                    ShadowArg::OnePass => PackShadows::OnePass,
+                    ShadowArg::TwoPass => PackShadows::TwoPass,
+                }),
+                stats_json,
+            };
+            if !(fov > 0.0 && fov < 180.0) {
+                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
+            }
+            if !(cutoff > 0.0 && cutoff.is_finite()) {
+                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
+            }
+            scene::cmd::render(&input, &out, &args)
+        }
+        Some(Command::Render {
+            input,
+            out,
+            view,
+            fov,
+            cutoff,
+            kernel,
+            light,
+            light_pos,
             shadows,
             stats_json,
         }) => {
@@ -246,6 +318,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     ShadowArg::TwoPass => ShadowMode::TwoPass,
                 },
                 ..Default::default()
+            };
+            let settings = pocketsplat_sim::render::Settings {
+                light_pos: light_pos
+                    .as_deref()
+                    .map(cmd::render::parse_light_pos)
+                    .transpose()?,
+                ..settings
             };
             cmd::render::run(&input, &out, &settings, stats_json)
         }
@@ -335,10 +414,43 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", report::views::run(&mesh, repeats)?);
             Ok(())
         }
+        Some(Command::Report {
+            which:
+                ReportKind::Shadows {
+                    models,
+                    repeats,
+                    quick,
+                    map,
+                },
+        }) => {
+            let models = models.unwrap_or_else(default_models);
+            print!("{}", report::shadows::run(&models, repeats, quick, map)?);
+            Ok(())
+        }
     }
 }
 
+/// `pocketsplat info x.tg | head`: a reader that closes the pipe early is not a crash. Rust ignores
+/// SIGPIPE, so `print!` panics on the broken pipe instead; end quietly with the status a shell
+/// gives a process killed by SIGPIPE (128 + 13), as C tools end.
+fn quiet_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let msg = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or_default();
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(141);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_broken_pipe();
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

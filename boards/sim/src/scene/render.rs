@@ -1,0 +1,211 @@
+//! Rendering scene packs on the desktop through the core's scene renderer (the firmware's code).
+//!
+//! [`render_pack`] is the call a report makes: a pack's view at a given cutoff, kernel and shadow
+//! mode, into [`FrameBuffers`], with timing, statistics and the RAM the device would need.
+
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Result};
+use pocketsplat_core::camera::{self, Camera, Sphere, View};
+use pocketsplat_core::raster::{Framebuffer, Kernel};
+use pocketsplat_core::scene::{
+    ram_budget, render_scene, PackShadows, RamBudget, Scene, SceneOptions, SceneStats, MAX_SLOTS,
+};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::splat::{ShadedRaster, Stats};
+
+use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
+
+/// The shading table the simulator uses for every scene (8 slots, the most a pack has).
+pub type SceneTable = ShadingTable<MAX_SLOTS>;
+
+/// A fresh, boxed scene shading table (148 KB: too big for a test thread's stack).
+pub fn scene_table() -> Box<SceneTable> {
+    Box::new(SceneTable::new())
+}
+
+/// What a frame of a scene did.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneFrame {
+    /// Per-object and total counts.
+    pub stats: SceneStats,
+    /// Wall time of setup, table update, traversal and raster (no clearing).
+    pub time: Duration,
+    /// RAM the device needs for this frame.
+    pub ram: RamBudget,
+}
+
+impl SceneFrame {
+    /// The frame as a single-model report (total counts).
+    pub fn report(&self) -> FrameReport {
+        FrameReport {
+            stats: self.stats.total,
+            time: self.time,
+        }
+    }
+}
+
+/// How to draw a frame of a pack: the view and the knobs a report sweeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PackSettings {
+    /// Orbit about the scene's sphere.
+    pub view: View,
+    /// LOD cutoff, pixels.
+    pub cutoff_px: f32,
+    /// Splat kernel.
+    pub kernel: Kernel,
+    /// Shadows (`None`: the pack's).
+    pub shadows: Option<PackShadows>,
+    /// Light azimuth and elevation, degrees (`None`: the pack's).
+    pub light_az_el: Option<(f64, f64)>,
+    /// Vertical field of view, degrees (`None`: the pack's).
+    pub fov_deg: Option<f64>,
+    /// Shadow map side (`None`: the pack's, or 256 when it has none).
+    pub shadow_map_size: Option<usize>,
+}
+
+impl PackSettings {
+    /// The pack's own light, shadows and field of view, at `view`, 1 px, square splats.
+    pub fn new(view: View) -> Self {
+        Self {
+            view,
+            cutoff_px: 1.0,
+            kernel: Kernel::Square,
+            shadows: None,
+            light_az_el: None,
+            fov_deg: None,
+            shadow_map_size: None,
+        }
+    }
+
+    /// From the simulator's single-model settings (the viewer's): their view, field of view,
+    /// cutoff, kernel, directional light and shadows.
+    ///
+    /// # Errors
+    /// A point light (scenes have a directional light).
+    pub fn from_settings(s: &Settings) -> Result<Self> {
+        if s.light_pos.is_some() {
+            bail!("a scene is lit by a directional light; --light-pos is for single models");
+        }
+        Ok(Self {
+            view: s.view,
+            cutoff_px: s.cutoff_px,
+            kernel: s.kernel,
+            shadows: Some(match s.shadows {
+                ShadowMode::Off => PackShadows::Off,
+                ShadowMode::OnePass => PackShadows::OnePass,
+                ShadowMode::TwoPass => PackShadows::TwoPass,
+            }),
+            light_az_el: Some(s.light_az_el),
+            fov_deg: Some(s.fov_deg),
+            shadow_map_size: Some(s.shadow_map_size),
+        })
+    }
+
+    /// The core's options for `scene`.
+    pub fn options(&self, scene: &Scene<'_>) -> SceneOptions {
+        let mut o = SceneOptions::of(scene.pack());
+        o.cutoff_px = self.cutoff_px;
+        o.kernel = self.kernel;
+        if let Some(s) = self.shadows {
+            o.shadows = s;
+        }
+        if let Some((az, el)) = self.light_az_el {
+            o.light_dir = camera::direction(az, el);
+        }
+        if let Some(n) = self.shadow_map_size {
+            o.shadow_map_size = n;
+        }
+        o
+    }
+
+    /// The camera of this view about `sphere` (moved by `pan` radii, as the viewer pans).
+    pub fn camera(&self, scene: &Scene<'_>, pan: [f64; 3]) -> Camera {
+        let s = scene.sphere();
+        let centre = camera::add(s.center, camera::scale(pan, s.radius));
+        Camera::orbit(
+            Sphere {
+                center: centre,
+                radius: s.radius,
+            },
+            self.view,
+            self.fov_deg.unwrap_or_else(|| scene.pack().fov_deg()),
+        )
+    }
+}
+
+/// Renders a frame of `scene` from `camera` into `out` (cleared first), with a caller-owned table
+/// (rebuilt only for slots whose light, view or material changed) and a hook that may draw over the
+/// frame.
+///
+/// # Errors
+/// When a frame cannot be set up (bad camera or cutoff).
+pub fn render_pack_from(
+    scene: &Scene<'_>,
+    camera: &Camera,
+    opts: &SceneOptions,
+    table: &mut SceneTable,
+    out: &mut FrameBuffers,
+    overlay: impl FnOnce(&mut Framebuffer<'_>, &SceneFrame),
+) -> Result<SceneFrame> {
+    let t = Instant::now();
+    scene.update_table(table, camera, opts.light_dir)?;
+    let side = opts.shadow_map_size;
+    if opts.shadows != PackShadows::Off && out.shadow.len() < side * side {
+        out.shadow.resize(side * side, u16::MAX);
+    }
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+    fb.clear(0);
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table,
+        kernel: opts.kernel,
+    };
+    let stats = render_scene(scene, camera, opts, &mut out.shadow, &mut sink)
+        .map_err(|e| anyhow!("{e}"))?;
+    let frame = SceneFrame {
+        stats,
+        time: t.elapsed(),
+        ram: ram_budget(scene.pack(), stats.shadows, side),
+    };
+    overlay(&mut fb, &frame);
+    Ok(frame)
+}
+
+/// Renders one frame of a pack's scene as `settings` say, into `out`.
+///
+/// # Errors
+/// When a frame cannot be set up.
+pub fn render_pack(
+    scene: &Scene<'_>,
+    settings: &PackSettings,
+    out: &mut FrameBuffers,
+) -> Result<SceneFrame> {
+    let mut table = scene_table();
+    let cam = settings.camera(scene, [0.0; 3]);
+    render_pack_from(
+        scene,
+        &cam,
+        &settings.options(scene),
+        &mut table,
+        out,
+        |_, _| {},
+    )
+}
+
+/// The counts of a frame as JSON fields.
+pub fn stats_json(s: &Stats) -> serde_json::Value {
+    serde_json::json!({
+        "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
+        "culled": s.culled, "backfacing": s.backfacing, "shadowed": s.shadowed,
+    })
+}
+
+/// The RAM budget as a JSON object (bytes).
+pub fn ram_json(r: &RamBudget) -> serde_json::Value {
+    serde_json::json!({
+        "framebuffer": r.framebuffer, "depth": r.depth, "shadow_map": r.shadow_map,
+        "shading_tables": r.shading_tables, "cache": r.cache, "frame_setup": r.frame_setup,
+        "scene": r.scene, "total": r.total(),
+    })
+}
