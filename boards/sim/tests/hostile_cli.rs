@@ -1,0 +1,415 @@
+//! `pocketsplat` on hostile input (issue 9): every subcommand on garbage, empty, a folder, a missing
+//! file and truncated files; meshes with NaN/Inf, out-of-range and negative indices, polygons, no
+//! triangles, coordinates too large to store, and extreme but valid ranges. Each must end with a
+//! non-zero exit and a message naming the file (and the element, for meshes), never a panic, and
+//! leave no output or temporary file behind; valid extremes must bake, read back and render.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("pocketsplat runs")
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Runs `args` and checks: failure, `needles` all in the message, no panic, no new file.
+fn fails(dir: &Path, args: &[&str], needles: &[&str]) {
+    let before = files_in(dir);
+    let out = pocketsplat(args, dir);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} should fail: {err}");
+    assert!(
+        !err.contains("panicked")
+            && !err.contains("RUST_BACKTRACE")
+            && !err.contains("stack backtrace"),
+        "{args:?} panicked: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: {n:?} not in {err:?}");
+    }
+    assert_eq!(files_in(dir), before, "{args:?} left a file behind");
+}
+
+/// Runs `args` and checks success without a panic message.
+fn succeeds(dir: &Path, args: &[&str]) -> Output {
+    let out = pocketsplat(args, dir);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    out
+}
+
+/// An ASCII PLY from vertex and face lines.
+fn ply(vertices: &[&str], faces: &[&str]) -> String {
+    format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
+         property double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n{}{}",
+        vertices.len(),
+        faces.len(),
+        vertices.iter().map(|v| format!("{v}\n")).collect::<String>(),
+        faces.iter().map(|f| format!("{f}\n")).collect::<String>(),
+    )
+}
+
+const OCTAHEDRON_V: [&str; 6] = ["1 0 0", "-1 0 0", "0 1 0", "0 -1 0", "0 0 1", "0 0 -1"];
+const OCTAHEDRON_F: [&str; 8] = [
+    "3 0 2 4", "3 2 1 4", "3 1 3 4", "3 3 0 4", "3 2 0 5", "3 1 2 5", "3 3 1 5", "3 0 3 5",
+];
+
+/// A binary little-endian PLY of the octahedron (to truncate).
+fn binary_octahedron() -> Vec<u8> {
+    let mut b = String::from(
+        "ply\nformat binary_little_endian 1.0\nelement vertex 6\nproperty float x\n\
+         property float y\nproperty float z\nelement face 8\n\
+         property list uchar int vertex_indices\nend_header\n",
+    )
+    .into_bytes();
+    for v in OCTAHEDRON_V {
+        for c in v.split(' ') {
+            b.extend(c.parse::<f32>().unwrap().to_le_bytes());
+        }
+    }
+    for f in OCTAHEDRON_F {
+        let mut it = f.split(' ').map(|x| x.parse::<i32>().unwrap());
+        b.push(it.next().unwrap() as u8);
+        for i in it {
+            b.extend(i.to_le_bytes());
+        }
+    }
+    b
+}
+
+/// Every subcommand that reads a file, with `input` in place.
+fn commands(input: &str) -> Vec<Vec<String>> {
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    vec![
+        s(&["bake", input, "-o", "out.tg", "--depth", "3"]),
+        s(&["info", input]),
+        s(&["info", input, "--json"]),
+        s(&["render", input, "-o", "out.png"]),
+        s(&[
+            "render",
+            input,
+            "-o",
+            "out.png",
+            "--shadows",
+            "two-pass",
+            "--stats-json",
+        ]),
+        s(&["view", input, "--frames", "1"]),
+        s(&["report", "views", "--mesh", input, "--repeats", "1"]),
+    ]
+}
+
+#[test]
+fn every_command_on_bad_files_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    assert!(succeeds(
+        d,
+        &[
+            "bake",
+            "oct.ply",
+            "-o",
+            "oct.tg",
+            "--depth",
+            "3",
+            "--block-size",
+            "512"
+        ]
+    )
+    .status
+    .success());
+    let tg = std::fs::read(d.join("oct.tg")).unwrap();
+    let bin = binary_octahedron();
+    let mut garbage = Vec::new();
+    let mut x = 0x2545_f491_u32;
+    for _ in 0..4096 {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        garbage.push(x as u8);
+    }
+    let mut tg_garbage = b"PSTG".to_vec();
+    tg_garbage.extend(&garbage);
+    let files: Vec<(&str, Vec<u8>)> = vec![
+        ("empty.bin", Vec::new()),
+        ("garbage.bin", garbage.clone()),
+        ("garbage.tg", tg_garbage),
+        ("half.tg", tg[..tg.len() / 2].to_vec()),
+        ("header-only.tg", tg[..512].to_vec()),
+        ("short.tg", tg[..100].to_vec()),
+        ("half.ply", bin[..bin.len() / 2].to_vec()),
+        (
+            "header-only.ply",
+            bin[..bin.iter().position(|&c| c == b'e').unwrap()].to_vec(),
+        ),
+        (
+            "text.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 1\nend_header\n".to_vec(),
+        ),
+    ];
+    for (name, bytes) in &files {
+        std::fs::write(d.join(name), bytes).unwrap();
+    }
+    std::fs::create_dir(d.join("folder.tg")).unwrap();
+    let mut inputs: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+    inputs.extend(["folder.tg", "missing.tg", "missing.ply"]);
+    for input in inputs {
+        for args in commands(input) {
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            fails(d, &args, &[input]);
+        }
+    }
+    // Outputs that cannot be written: into a missing folder, onto a folder.
+    std::fs::create_dir(d.join("outdir")).unwrap();
+    fails(
+        d,
+        &["bake", "oct.ply", "-o", "no/such/dir/x.tg"],
+        &["no/such/dir"],
+    );
+    fails(d, &["bake", "oct.ply", "-o", "outdir"], &["outdir"]);
+    fails(d, &["render", "oct.tg", "-o", "outdir"], &["outdir"]);
+    fails(
+        d,
+        &["render", "oct.tg", "-o", "no/such/dir/x.png"],
+        &["no/such/dir"],
+    );
+}
+
+#[test]
+fn garbage_arguments_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    for (args, needle) in [
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--depth", "11"][..],
+            "--depth 11",
+        ),
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--depth", "-1"][..],
+            "-1",
+        ),
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--rho", "1"][..],
+            "--rho 1",
+        ),
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--block-size", "0"][..],
+            "--block-size 0",
+        ),
+        (
+            &["bake", "oct.ply", "-o", "o.tg", "--format", "zip"][..],
+            "zip",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--view", "nan,0,1"][..],
+            "--view",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--view", "0,0,-1"][..],
+            "--view",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--view", "0,0,1e999"][..],
+            "--view",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--cutoff", "0"][..],
+            "--cutoff",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--cutoff", "inf"][..],
+            "--cutoff",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--fov", "nan"][..],
+            "--fov",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--light", "1"][..],
+            "--light",
+        ),
+        (
+            &["render", "oct.ply", "-o", "o.png", "--kernel", "hex"][..],
+            "hex",
+        ),
+        (&["frobnicate"][..], "frobnicate"),
+    ] {
+        fails(d, args, &[needle]);
+    }
+}
+
+#[test]
+fn bad_meshes_name_file_and_element_and_leave_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let with_vertex = |i: usize, v: &'static str| {
+        let mut vs = OCTAHEDRON_V;
+        vs[i] = v;
+        ply(&vs, &OCTAHEDRON_F)
+    };
+    let with_face = |i: usize, f: &'static str| {
+        let mut fs = OCTAHEDRON_F;
+        fs[i] = f;
+        ply(&OCTAHEDRON_V, &fs)
+    };
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        ("nan.ply", with_vertex(2, "0 nan 0"), vec!["vertex 2"]),
+        ("inf.ply", with_vertex(4, "0 0 -inf"), vec!["vertex 4"]),
+        (
+            "huge.ply",
+            with_vertex(1, "-1e300 0 0"),
+            vec!["vertex 1", "too large"],
+        ),
+        (
+            "over-f32.ply",
+            with_vertex(5, "0 0 3.5e38"),
+            vec!["vertex 5", "too large"],
+        ),
+        (
+            "index.ply",
+            with_face(3, "3 0 1 99"),
+            vec!["face 3", "vertex 99"],
+        ),
+        (
+            "negative.ply",
+            with_face(6, "3 0 -2 1"),
+            vec!["face 6", "-2"],
+        ),
+        (
+            "quad.ply",
+            with_face(0, "4 0 2 4 1"),
+            vec!["face 0", "4 vertices"],
+        ),
+        (
+            "line.ply",
+            with_face(7, "2 0 1"),
+            vec!["face 7", "2 vertices"],
+        ),
+        ("empty.ply", ply(&[], &[]), vec!["empty"]),
+        ("no-faces.ply", ply(&OCTAHEDRON_V, &[]), vec!["empty"]),
+        (
+            "flat.ply",
+            ply(&["0 0 0", "1 1 1", "2 2 2"], &["3 0 1 2"]),
+            vec!["zero area"],
+        ),
+    ];
+    for (name, text, needles) in cases {
+        std::fs::write(d.join(name), text).unwrap();
+        let mut all = vec![name];
+        all.extend(needles);
+        fails(d, &["bake", name, "-o", "out.tg", "--depth", "3"], &all);
+        fails(d, &["render", name, "-o", "out.png"], &all);
+        std::fs::remove_file(d.join(name)).unwrap();
+    }
+}
+
+#[test]
+fn extreme_but_valid_meshes_bake_read_back_and_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let tri = |a: f64, s: f64| {
+        ply(
+            &[
+                &format!("{a} {a} {a}"),
+                &format!("{} {a} {a}", a + s),
+                &format!("{a} {} {a}", a + s),
+            ],
+            &["3 0 1 2"],
+        )
+    };
+    let cases = [
+        // The widest range a .tg file can hold.
+        (
+            "widest.ply",
+            ply(
+                &["-1e38 -1e38 0", "1e38 -1e38 0", "0 1e38 1e38"],
+                &["3 0 1 2"],
+            ),
+        ),
+        // Tiny meshes far from the origin, where the root cube's corner rounds (in f32) by far
+        // more than the mesh's size.
+        ("speck-1e6.ply", tri(1e6, 1e-3)),
+        ("speck-1e20.ply", tri(1e20, 1e6)),
+        ("speck-1e-30.ply", tri(1e-30, 1e-38)),
+        // Flat in x at 2^126, exactly an f32: the corner rounds down a whole f32 step there while
+        // the side starts at 1e-30. Growing the side one f32 at a time took ~10^9 steps.
+        (
+            "plane-far.ply",
+            ply(
+                &[
+                    "8.507059173023462e37 0 0",
+                    "8.507059173023462e37 1e-30 0",
+                    "8.507059173023462e37 0 1e-30",
+                ],
+                &["3 0 1 2"],
+            ),
+        ),
+    ];
+    for (name, text) in cases {
+        std::fs::write(d.join(name), text).unwrap();
+        let t = Instant::now();
+        succeeds(d, &["bake", name, "-o", "x.tg", "--depth", "6"]);
+        assert!(
+            t.elapsed() < Duration::from_secs(60),
+            "{name} took {:?}",
+            t.elapsed()
+        );
+        succeeds(d, &["info", "x.tg"]);
+        for shadows in ["off", "one-pass", "two-pass"] {
+            succeeds(d, &["render", "x.tg", "-o", "x.png", "--shadows", shadows]);
+            succeeds(
+                d,
+                &[
+                    "render", "x.tg", "-o", "x.png", "--view", "close", "--cutoff", "0.01",
+                ],
+            );
+        }
+        succeeds(d, &["render", name, "-o", "ref.png"]);
+    }
+}
+
+#[test]
+fn a_closed_stdout_is_not_a_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    succeeds(d, &["bake", "oct.ply", "-o", "oct.tg", "--depth", "3"]);
+    for args in [
+        &["info", "oct.tg"][..],
+        &["info", "oct.tg", "--json"][..],
+        &["render", "oct.tg", "-o", "x.png", "--stats-json"][..],
+    ] {
+        // `pocketsplat info oct.tg | head -0`: the reader is gone before anything is written.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
+            .args(args)
+            .current_dir(d)
+            .stdout(Stdio::from(writer))
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
