@@ -36,7 +36,7 @@ pub mod sdmmc;
 pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
 pub use tg::{
     read_tg_header, size_class, stream_priority, ServeReport, StreamCounters, TgStream,
-    QUEUE_CAPACITY,
+    OPEN_ATTEMPTS, QUEUE_CAPACITY,
 };
 
 use crate::tg::TgError;

@@ -14,7 +14,7 @@ use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS}
 /// Requests one frame may queue; further ones replace the lowest or are dropped (and counted).
 pub const QUEUE_CAPACITY: usize = 256;
 /// Attempts at the header and at each CRC-table block when opening.
-const OPEN_ATTEMPTS: u32 = 8;
+pub const OPEN_ATTEMPTS: u32 = 8;
 /// Smallest block a `.tg` file has (the header's own block size is read from its first 512 bytes).
 const MIN_BLOCK: usize = 512;
 /// Longest backoff after repeated failures, frames.
