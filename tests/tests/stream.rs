@@ -77,9 +77,7 @@ fn every_torture_source_converges_to_the_resident_frame() {
         ("4 KB blocks in 512-byte chunks", false, |f| {
             Box::new(Erased(Chunked::new(MemSource::new(f), 512, false)))
         }),
-        ("1 KB blocks", true, |f| {
-            Box::new(Erased(MemSource::new(f)))
-        }),
+        ("1 KB blocks", true, |f| Box::new(Erased(MemSource::new(f)))),
         ("prime 509-byte chunks", false, |f| {
             Box::new(Erased(Chunked::new(MemSource::new(f), 509, false)))
         }),
