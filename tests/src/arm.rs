@@ -14,7 +14,12 @@ use std::sync::Mutex;
 
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
-use pocketsplat_pda::{FrameLine, FrameReport, FrameSpec, Phase};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::tg::TriGrid;
+use pocketsplat_pda::{
+    render_standard_view, FrameLine, FrameReport, FrameSpec, Phase, Targets, HEIGHT,
+    SHADOW_MAP_SIZE, WIDTH,
+};
 
 use crate::elf::{Elf, Memory};
 use crate::{model, workspace_root};
@@ -45,6 +50,56 @@ pub const MARKERS: [&str; 5] = [
     "pocketsplat_mark_traverse",
     "pocketsplat_mark_end",
 ];
+
+/// The host's side of a comparison: the buffers the firmware keeps in statics, on the heap, and
+/// the very library call the firmware makes to fill them.
+pub struct HostFrames {
+    color: Box<[[u16; WIDTH]; HEIGHT]>,
+    depth: Box<[[u16; WIDTH]; HEIGHT]>,
+    table: Box<ShadingTable<1>>,
+    shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
+}
+
+impl Default for HostFrames {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl HostFrames {
+    /// Cleared buffers.
+    pub fn new() -> Self {
+        let rows = || {
+            vec![[0u16; WIDTH]; HEIGHT]
+                .into_boxed_slice()
+                .try_into()
+                .expect("HEIGHT rows")
+        };
+        HostFrames {
+            color: rows(),
+            depth: rows(),
+            table: Box::new(ShadingTable::new()),
+            shadow: vec![0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]
+                .into_boxed_slice()
+                .try_into()
+                .expect("a square map"),
+        }
+    }
+
+    /// Renders frame `spec` of `grid` as the firmware does.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up.
+    pub fn render(&mut self, grid: &TriGrid<'_>, spec: FrameSpec) -> Result<FrameReport> {
+        let mut targets = Targets {
+            color: &mut self.color,
+            depth: &mut self.depth,
+            table: &mut self.table,
+            shadow: &mut self.shadow,
+        };
+        Ok(render_standard_view(grid, spec, &mut targets, |_| {})?)
+    }
+}
 
 /// Serialises firmware builds: every variant builds into the same target dir and output path.
 static BUILD: Mutex<()> = Mutex::new(());

@@ -12,60 +12,21 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use pocketsplat_core::camera::STANDARD_VIEWS;
-use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_pda::{
-    frame_specs_for, render_standard_view, FrameReport, FrameSpec, Shadows, Targets, CUTOFFS_PX,
-    HEIGHT, SHADOW_MAP_SIZE, WIDTH,
+    frame_specs_for, FrameReport, FrameSpec, Shadows, CUTOFFS_PX, SHADOW_MAP_SIZE,
 };
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 use pocketsplat_tests::arm::{
-    baked_bunny, check_memory, frame_costs, have_qemu, Counter, Firmware, FrameCost, TARGET,
+    baked_bunny, check_memory, frame_costs, have_qemu, Counter, Firmware, FrameCost, HostFrames,
+    TARGET,
 };
 
 /// The baked bunny, once per test binary.
 fn bunny() -> Option<PathBuf> {
     static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
     BUNNY.get_or_init(|| baked_bunny().unwrap()).clone()
-}
-
-/// The host's side: the frame buffers the firmware keeps in statics, on the heap.
-struct Host {
-    color: Box<[[u16; WIDTH]; HEIGHT]>,
-    depth: Box<[[u16; WIDTH]; HEIGHT]>,
-    table: Box<ShadingTable<1>>,
-    shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
-}
-
-impl Host {
-    fn new() -> Self {
-        let rows = || {
-            vec![[0u16; WIDTH]; HEIGHT]
-                .into_boxed_slice()
-                .try_into()
-                .expect("HEIGHT rows")
-        };
-        Host {
-            color: rows(),
-            depth: rows(),
-            table: Box::new(ShadingTable::new()),
-            shadow: vec![0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]
-                .into_boxed_slice()
-                .try_into()
-                .expect("a square map"),
-        }
-    }
-
-    fn render(&mut self, grid: &TriGrid<'_>, spec: FrameSpec) -> anyhow::Result<FrameReport> {
-        let mut targets = Targets {
-            color: &mut self.color,
-            depth: &mut self.depth,
-            table: &mut self.table,
-            shadow: &mut self.shadow,
-        };
-        Ok(render_standard_view(grid, spec, &mut targets, |_| {})?)
-    }
 }
 
 /// Builds the firmware with the bunny and `features`, boots it (counting instructions with
@@ -97,7 +58,7 @@ fn firmware_matches_host(
     let bytes = std::fs::read(&model).unwrap();
     let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
     let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
-    let mut host = Host::new();
+    let mut host = HostFrames::new();
     let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
         host.render(&grid, spec)
     })
@@ -196,7 +157,7 @@ fn firmware_frames_are_the_simulators_frames() {
     };
     let bytes = std::fs::read(&model).unwrap();
     let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
-    let mut host = Host::new();
+    let mut host = HostFrames::new();
     let mut sim = FrameBuffers::new();
     for spec in frame_specs_for(&Shadows::ALL) {
         let ours = host.render(&grid, spec).unwrap();

@@ -23,15 +23,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 use anyhow::{bail, ensure, Context, Result};
-use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{
-    frame_specs_for, render_standard_view, FrameReport, FrameSpec, Phase, Shadows, Targets, HEIGHT,
-    SHADOW_MAP_SIZE, WIDTH,
-};
+use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Phase, Shadows};
 use pocketsplat_tests::arm::{
     baked_bunny, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
-    FrameCost, BENCH_TARGETS,
+    FrameCost, HostFrames, BENCH_TARGETS,
 };
 use pocketsplat_tests::elf::Memory;
 use serde_json::json;
@@ -111,43 +107,15 @@ struct Row {
     memory: Memory,
 }
 
-/// The host's buffers, to render the frames the firmware must match.
+/// A grid and the host's buffers, to render the frames the firmware must match.
 struct Host<'g> {
     grid: &'g TriGrid<'g>,
-    color: Box<[[u16; WIDTH]; HEIGHT]>,
-    depth: Box<[[u16; WIDTH]; HEIGHT]>,
-    table: Box<ShadingTable<1>>,
-    shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
+    frames: HostFrames,
 }
 
-impl<'g> Host<'g> {
-    fn new(grid: &'g TriGrid<'g>) -> Self {
-        let rows = || {
-            vec![[0u16; WIDTH]; HEIGHT]
-                .into_boxed_slice()
-                .try_into()
-                .expect("HEIGHT rows")
-        };
-        Host {
-            grid,
-            color: rows(),
-            depth: rows(),
-            table: Box::new(ShadingTable::new()),
-            shadow: vec![0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]
-                .into_boxed_slice()
-                .try_into()
-                .expect("a square map"),
-        }
-    }
-
+impl Host<'_> {
     fn render(&mut self, spec: FrameSpec) -> Result<FrameReport> {
-        let mut t = Targets {
-            color: &mut self.color,
-            depth: &mut self.depth,
-            table: &mut self.table,
-            shadow: &mut self.shadow,
-        };
-        Ok(render_standard_view(self.grid, spec, &mut t, |_| {})?)
+        self.frames.render(self.grid, spec)
     }
 }
 
@@ -409,7 +377,10 @@ fn run() -> Result<()> {
         );
     }
     let counter = Counter::build()?;
-    let mut host = Host::new(&grid);
+    let mut host = Host {
+        grid: &grid,
+        frames: HostFrames::new(),
+    };
     for target in &args.targets {
         let plain = Firmware {
             target,
