@@ -35,6 +35,9 @@ pub trait ShadowHooks {
     fn casts(&mut self, level: usize, p: Self::Pos);
     /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
     fn light_stop(&self, level: usize) -> bool;
+    /// A cell at `level` whose children have all been visited (light-ordered walks only).
+    #[inline(always)]
+    fn descended(&mut self, _level: usize, _p: Self::Pos) {}
 }
 
 /// No shadows: every hook is a no-op and the light-space position is `()`.
@@ -361,6 +364,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
                     inside,
                 );
             }
+            self.hooks.descended(l, p);
         } else {
             // Children in slot order; the group pointer finds the grandchildren.
             let has_grandchildren = next < f.depth;
