@@ -276,12 +276,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }),
                 stats_json,
             };
-            if !(fov > 0.0 && fov < 180.0) {
-                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
-            }
-            if !(cutoff > 0.0 && cutoff.is_finite()) {
-                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
-            }
+            check_fov_cutoff(fov, cutoff)?;
             scene::cmd::render(&input, &out, &args)
         }
         Some(Command::Render {
@@ -296,12 +291,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             shadows,
             stats_json,
         }) => {
-            if !(fov > 0.0 && fov < 180.0) {
-                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
-            }
-            if !(cutoff > 0.0 && cutoff.is_finite()) {
-                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
-            }
+            check_fov_cutoff(fov, cutoff)?;
             let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
                 view: cmd::render::parse_view(&view)?,
@@ -342,12 +332,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             frames,
             screenshot,
         }) => {
-            if !(fov > 0.0 && fov < 180.0) {
-                anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
-            }
-            if !(cutoff > 0.0 && cutoff.is_finite()) {
-                anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
-            }
+            check_fov_cutoff(fov, cutoff)?;
             let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
                 view: cmd::render::parse_view(&view)?,
@@ -428,6 +413,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--fov` and `--cutoff` of `render` (any input) and `view`.
+fn check_fov_cutoff(fov: f64, cutoff: f32) -> anyhow::Result<()> {
+    if !(fov > 0.0 && fov < 180.0) {
+        anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
+    }
+    if !(cutoff > 0.0 && cutoff.is_finite()) {
+        anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
+    }
+    Ok(())
 }
 
 /// `pocketsplat info x.tg | head`: a reader that closes the pipe early is not a crash. Rust ignores

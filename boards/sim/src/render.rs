@@ -223,6 +223,31 @@ pub fn render_tg_with(
     })
 }
 
+/// A frame's per-frame setup from `settings` and `cam`: the tri-grid frame tables of the model
+/// described by `header`, and the shading table updated for the light and the viewer.
+///
+/// # Errors
+/// When the frame cannot be set up.
+pub fn frame_setup(
+    header: &Header,
+    settings: &Settings,
+    cam: &Camera,
+    table: &mut ShadingTable<1>,
+) -> anyhow::Result<TgFrame> {
+    let opts = RenderOptions {
+        cutoff_px: settings.cutoff_px,
+        kernel: settings.kernel,
+        ..RenderOptions::default()
+    };
+    let frame = TgFrame::new(header, &Placement::IDENTITY, cam, &opts)?;
+    table.update(
+        &[settings.material],
+        settings.light_dir(),
+        camera::scale(cam.forward, -1.0),
+    );
+    Ok(frame)
+}
+
 /// As [`render_tg_with`], from `cam` instead of the orbit camera of `settings.view` (the viewer
 /// pans the orbit centre); the hook also sees the frame's time.
 ///
@@ -236,18 +261,8 @@ pub fn render_tg_from(
     out: &mut FrameBuffers,
     overlay: impl FnOnce(&mut Framebuffer<'_>, &FrameReport),
 ) -> anyhow::Result<FrameReport> {
-    let opts = RenderOptions {
-        cutoff_px: settings.cutoff_px,
-        kernel: settings.kernel,
-        ..RenderOptions::default()
-    };
     let t = Instant::now();
-    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, cam, &opts)?;
-    table.update(
-        &[settings.material],
-        settings.light_dir(),
-        camera::scale(cam.forward, -1.0),
-    );
+    let frame = frame_setup(grid.header(), settings, cam, table)?;
     // Borrow the fields apart: the shadow map is used while the framebuffer is.
     let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
     fb.clear(0);

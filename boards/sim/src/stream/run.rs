@@ -2,16 +2,16 @@
 //! resident, and `render --stream` (draw, serve the budget, repeat until a frame misses nothing).
 
 use anyhow::{bail, Context, Result};
-use pocketsplat_core::camera::{self, Camera, Placement};
+use pocketsplat_core::camera::Camera;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::{ShadedRaster, Stats};
 use pocketsplat_core::stream::{
     read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, TgStream,
 };
-use pocketsplat_core::tg::{Header, RenderOptions, TgFrame};
+use pocketsplat_core::tg::Header;
 
-use crate::render::{FrameBuffers, Settings, ShadowMode};
+use crate::render::{frame_setup, FrameBuffers, Settings, ShadowMode};
 
 /// Largest block a `.tg` file has.
 const MAX_BLOCK: usize = 1 << 16;
@@ -80,17 +80,7 @@ pub fn stream_frame(
     if settings.shadows != ShadowMode::Off {
         bail!("--stream draws without shadows for now");
     }
-    let opts = RenderOptions {
-        cutoff_px: settings.cutoff_px,
-        kernel: settings.kernel,
-        ..RenderOptions::default()
-    };
-    let frame = TgFrame::new(stream.header(), &Placement::IDENTITY, cam, &opts)?;
-    table.update(
-        &[settings.material],
-        settings.light_dir(),
-        camera::scale(cam.forward, -1.0),
-    );
+    let frame = frame_setup(stream.header(), settings, cam, table)?;
     let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
     fb.clear(0);
     let mut sink = ShadedRaster {
