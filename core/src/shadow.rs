@@ -54,10 +54,11 @@
 
 use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
+use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
 use crate::tg::frame::{TgFrame, MAX_SLOTS};
 use crate::tg::read::{Header, TriGrid};
-use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks};
+use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks, SlotOrder};
 use crate::tg::MAX_LEVELS;
 
 /// Q8: sub-texel bits of `U`, `V` and sub-unit bits of `D`.
@@ -204,10 +205,30 @@ pub struct LightFrame {
     texel_q16: i32,
     /// A fill-only descent stops at this level and below (cells ≤ 1 texel).
     stop_level: usize,
-    order: [u8; MAX_SLOTS],
+    order: SlotOrder,
     /// Whether this is a point light, and its depth scale (zero for a directional light).
     point: bool,
     point_depth: PointDepth,
+    /// Look-ups that the tables above determine ([`LightFrame::derive`]).
+    derived: Derived,
+}
+
+/// What a sample's shadow test looks up instead of computing, made once per light.
+#[derive(Clone, Debug)]
+struct Derived {
+    /// By normal code: 0 when the normal faces away from the light (`n·l ≤ 0`), else 1 + the
+    /// `tan_q8` index of its `n·l`.
+    facing: [u8; NORMAL_COUNT],
+    /// Directional lights: the whole depth bias by row and `facing` value; row `l + 1` is level
+    /// `l`, and row 0 is level 0 again, so that one-pass's "as for the parent's level" is row `l`.
+    slope: [[i32; 66]; MAX_LEVELS + 1],
+}
+
+impl Derived {
+    const EMPTY: Derived = Derived {
+        facing: [0; NORMAL_COUNT],
+        slope: [[0; 66]; MAX_LEVELS + 1],
+    };
 }
 
 fn to_i(x: f64) -> i32 {
@@ -311,7 +332,7 @@ impl LightFrame {
         let bias = depth_bias(&ext, header.depth, stop_level);
         // Depth (Q8) per texel of lateral distance, times the reach in texels.
         let reach = directional_reach(&ext, header.depth, extent / map_size as f64 * s_d);
-        LightFrame {
+        let mut frame = LightFrame {
             root,
             disp,
             ext,
@@ -321,10 +342,13 @@ impl LightFrame {
             reach,
             texel_q16: 0,
             stop_level,
-            order: light_order(rho, travel),
+            order: SlotOrder::new(light_order(rho, travel)),
             point: false,
             point_depth: PointDepth::default(),
-        }
+            derived: Derived::EMPTY,
+        };
+        frame.derive();
+        frame
     }
 
     /// Sets up a point light at `light_pos` (world space) for the grid described by `header`, placed
@@ -450,7 +474,7 @@ impl LightFrame {
             )),
             16384.0,
         );
-        Ok(LightFrame {
+        let mut frame = LightFrame {
             root,
             disp,
             ext,
@@ -461,18 +485,44 @@ impl LightFrame {
             // A texel at distance W spans W·2·tan/N across.
             texel_q16: to_i(2.0 * tan / n * 65536.0),
             stop_level,
-            order: light_order(rho, axis_d),
+            order: SlotOrder::new(light_order(rho, axis_d)),
             point: true,
             point_depth: PointDepth {
                 depth_w0: to_i(w_lo),
                 depth_scale: (65534.0 * 4_294_967_296.0 / (w_hi - w_lo)) as u64,
             },
-        })
+            derived: Derived::EMPTY,
+        };
+        frame.derive();
+        Ok(frame)
+    }
+
+    /// The tables a sample's test looks up, from the light's direction, biases and reaches:
+    /// integer arithmetic only, so host and ARM make the same ones.
+    fn derive(&mut self) {
+        let l = self.to_light_q14;
+        for (f, n) in self.derived.facing.iter_mut().zip(NORMALS_Q14.iter()) {
+            let cos =
+                (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2]) >> 14;
+            *f = if cos <= 0 {
+                0
+            } else {
+                1 + (cos >> 8).min(64) as u8
+            };
+        }
+        if !self.point {
+            for row in 0..=MAX_LEVELS {
+                let level = row.max(1) - 1;
+                for k in 1..66 {
+                    self.derived.slope[row][k] = self.bias_at::<false>(level, 0, k - 1);
+                }
+            }
+        }
     }
 
     /// The slot order, nearest to the light first.
     pub fn order(&self) -> &[u8; MAX_SLOTS] {
-        &self.order
+        self.order.slots()
     }
 
     /// Whether this is a point light (always two-pass).
@@ -489,16 +539,18 @@ impl LightFrame {
     /// makes `n·l = cos_q14 / 16384` with the light, in light-space depth units (Q8 depth for a
     /// directional light, `W` for a point light).
     pub fn bias(&self, level: usize, d: i32, cos_q14: i32) -> i32 {
+        let k = (cos_q14.max(0) >> 8).min(64) as usize;
         if self.point {
-            self.bias_of::<true>(level, d, cos_q14)
+            self.bias_at::<true>(level, d, k)
         } else {
-            self.bias_of::<false>(level, d, cos_q14)
+            self.bias_at::<false>(level, d, k)
         }
     }
 
+    /// [`LightFrame::bias`] by the `tan_q8` index `k` of `n·l`.
     #[inline(always)]
-    fn bias_of<const POINT: bool>(&self, level: usize, d: i32, cos_q14: i32) -> i32 {
-        let tan = i64::from(self.tan_q8[(cos_q14.max(0) >> 8).min(64) as usize]);
+    fn bias_at<const POINT: bool>(&self, level: usize, d: i32, k: usize) -> i32 {
+        let tan = i64::from(self.tan_q8[k]);
         let reach = if POINT {
             // The texels' share grows with the distance from the light.
             let texel = (i64::from(d.max(0)) * i64::from(self.texel_q16)) >> 16;
@@ -580,22 +632,25 @@ impl LightFrame {
         }
     }
 
-    /// Whether a sample at `level`, light-space `p`, attribute `attr` is in shadow in `map`.
+    /// Whether a sample at light-space `p` with attribute `attr` is in shadow in `map`, biased as
+    /// for a cell at level `row - 1` (row 0: level 0; a point light: `row ≥ 1`).
     #[inline]
     fn in_shadow<const POINT: bool>(
         &self,
         map: &ShadowMap<'_>,
-        level: usize,
+        row: usize,
         p: LightPos,
         attr: u16,
     ) -> bool {
-        let n = crate::normal::NORMALS_Q14[usize::from(attr) & (crate::normal::NORMAL_COUNT - 1)];
-        let l = self.to_light_q14;
-        let cos = (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2]) >> 14;
-        if cos <= 0 {
+        let k = self.derived.facing[usize::from(attr) & (NORMAL_COUNT - 1)];
+        if k == 0 {
             return true;
         }
-        let bias = self.bias_of::<POINT>(level, p[2], cos);
+        let bias = if POINT {
+            self.bias_at::<true>(row - 1, p[2], usize::from(k - 1))
+        } else {
+            self.derived.slope[row][usize::from(k)]
+        };
         let (u, v, _) = Self::texel::<POINT>(p);
         map.at(u >> LIGHT_FRAC, v >> LIGHT_FRAC) < self.depth16::<POINT>(p[2] - bias)
     }
@@ -636,8 +691,14 @@ pub struct OnePass<'l, 'm, 'b> {
 
 impl ShadowHooks for OnePass<'_, '_, '_> {
     type Pos = LightPos;
-    const ORDERED: bool = true;
     const FILL_CULLED: bool = true;
+    /// Light order only above the stop level: below it nothing fills until the stop-level
+    /// ancestor has been descended ([`OnePass::casts`]), so the order of its descendants cannot
+    /// change what any of them is tested against, and the walk there takes the cheaper slot order.
+    #[inline(always)]
+    fn ordered(&self, level: usize) -> bool {
+        level < self.light.stop_level
+    }
     #[inline(always)]
     fn root(&self) -> LightPos {
         self.light.root
@@ -646,15 +707,15 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
     fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
         self.light.step(p, level, slot)
     }
-    fn order(&self) -> &[u8; MAX_SLOTS] {
+    fn order(&self) -> &SlotOrder {
         &self.light.order
     }
     #[inline]
     fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
         // The map holds what neighbours drew, with their footprints and centre depths, and with
-        // multi-level rendering a neighbour may be one level coarser: bias as for that level.
-        let coarser = level.saturating_sub(1);
-        let shadowed = self.light.in_shadow::<false>(self.map, coarser, p, attr);
+        // multi-level rendering a neighbour may be one level coarser: bias as for that level,
+        // which is row `level` of the bias table.
+        let shadowed = self.light.in_shadow::<false>(self.map, level, p, attr);
         self.casts(level, p);
         shadowed
     }
@@ -690,7 +751,6 @@ pub struct TwoPass<'l, 'm, 'b, const POINT: bool> {
 
 impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
     type Pos = LightPos;
-    const ORDERED: bool = false;
     const FILL_CULLED: bool = false;
     #[inline(always)]
     fn root(&self) -> LightPos {
@@ -700,12 +760,9 @@ impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
     fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
         self.light.step(p, level, slot)
     }
-    fn order(&self) -> &[u8; MAX_SLOTS] {
-        &self.light.order
-    }
     #[inline]
     fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
-        self.light.in_shadow::<POINT>(self.map, level, p, attr)
+        self.light.in_shadow::<POINT>(self.map, level + 1, p, attr)
     }
     #[inline(always)]
     fn casts(&mut self, _: usize, _: LightPos) {}
@@ -723,7 +780,6 @@ struct Fill<'l, 'm, 'b, const POINT: bool> {
 
 impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {
     type Pos = LightPos;
-    const ORDERED: bool = false;
     const FILL_CULLED: bool = true;
     fn root(&self) -> LightPos {
         self.light.root
@@ -731,9 +787,6 @@ impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {
     #[inline(always)]
     fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
         self.light.step(p, level, slot)
-    }
-    fn order(&self) -> &[u8; MAX_SLOTS] {
-        &self.light.order
     }
     fn drawn(&mut self, _: usize, _: LightPos, _: u16) -> bool {
         false
@@ -906,7 +959,7 @@ impl LightFrame {
         let bias = depth_bias(&ext, header.depth, stop_level);
         let reach = directional_reach(&ext, header.depth, space.texel * space.scales[2]);
         let travel = placement.to_model_dir(space.axes[2]);
-        LightFrame {
+        let mut frame = LightFrame {
             root,
             disp,
             ext,
@@ -916,10 +969,13 @@ impl LightFrame {
             reach,
             texel_q16: 0,
             stop_level,
-            order: light_order(rho, travel),
+            order: SlotOrder::new(light_order(rho, travel)),
             point: false,
             point_depth: PointDepth::default(),
-        }
+            derived: Derived::EMPTY,
+        };
+        frame.derive();
+        frame
     }
 }
 
@@ -1116,5 +1172,136 @@ mod tests {
             LightFrame::point(&h, &Placement::IDENTITY, [f64::NAN, 5.0, 0.0], 64).unwrap_err(),
             LightError::NotFinite
         );
+    }
+}
+
+#[cfg(all(test, feature = "bake"))]
+mod order_tests {
+    #![allow(clippy::float_arithmetic)]
+    use super::*;
+    use crate::bake::{bake_grid, BakeOptions, TriMesh};
+    use crate::camera::{Camera, View, STANDARD_VIEWS};
+    use crate::splat::SampleSplat;
+    use crate::tg::write::write_tg;
+    use crate::tg::{RenderOptions, Verify};
+    use std::vec::Vec;
+
+    /// A bumpy height field, which shadows itself under an oblique light.
+    fn terrain(n: u32) -> TriMesh {
+        let mut m = TriMesh::default();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, z) = (
+                    f64::from(i) / f64::from(n) * 2.0 - 1.0,
+                    f64::from(j) / f64::from(n) * 2.0 - 1.0,
+                );
+                let y = 0.6 * libm::sin(7.0 * x) * libm::cos(6.0 * z);
+                m.positions.push([x, y, z]);
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i;
+                let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+                m.triangles.push([a, c, b]);
+                m.triangles.push([b, c, d]);
+            }
+        }
+        m
+    }
+
+    /// One-pass shadows with the children in light order at every level, as the walk was before
+    /// it took slot order below the stop level.
+    struct OrderedEverywhere<'a, 'l, 'm, 'b>(&'a mut OnePass<'l, 'm, 'b>);
+
+    impl ShadowHooks for OrderedEverywhere<'_, '_, '_, '_> {
+        type Pos = LightPos;
+        const FILL_CULLED: bool = true;
+        fn ordered(&self, _: usize) -> bool {
+            true
+        }
+        fn root(&self) -> LightPos {
+            self.0.root()
+        }
+        fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
+            self.0.child(p, level, slot)
+        }
+        fn order(&self) -> &SlotOrder {
+            self.0.order()
+        }
+        fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
+            self.0.drawn(level, p, attr)
+        }
+        fn casts(&mut self, level: usize, p: LightPos) {
+            self.0.casts(level, p);
+        }
+        fn light_stop(&self, level: usize) -> bool {
+            self.0.light_stop(level)
+        }
+        fn descended(&mut self, level: usize, p: LightPos) {
+            self.0.descended(level, p);
+        }
+    }
+
+    /// Every drawn sample's (level, index, shadowed), sorted.
+    #[derive(Default)]
+    struct Classes(Vec<(u8, u32, bool)>);
+    impl SplatSink for Classes {
+        fn splat(&mut self, s: &SampleSplat) {
+            self.0.push((s.level, s.index, s.shadowed));
+        }
+    }
+
+    #[test]
+    fn slot_order_below_the_stop_level_shadows_every_sample_as_light_order_does() {
+        let baked = bake_grid(&terrain(60), BakeOptions { rho: 3, depth: 5 }, None).unwrap();
+        let bytes = write_tg(&baked, 12).unwrap();
+        let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+        let h = grid.header();
+        let sphere = Sphere::from_bounds(h.bounds);
+        let light = LightFrame::new(h, &Placement::IDENTITY, camera::direction(-40.0, 35.0), 64);
+        assert!(
+            light.stop_level() < usize::from(h.depth),
+            "the test needs levels below the stop"
+        );
+        let mut depth = std::vec![0u16; 64 * 64];
+        let views = STANDARD_VIEWS
+            .iter()
+            .map(|&(_, v)| v)
+            .chain([View::new(30.0, 20.0, 0.6)]);
+        for view in views {
+            for cutoff_px in [1.0, 3.0] {
+                let cam = Camera::orbit(sphere, view, 45.0);
+                let opts = RenderOptions {
+                    cutoff_px,
+                    ..RenderOptions::default()
+                };
+                let frame = TgFrame::new(h, &Placement::IDENTITY, &cam, &opts).unwrap();
+                let mut classes = [Classes::default(), Classes::default()];
+                for (everywhere, out) in [false, true].into_iter().zip(&mut classes) {
+                    let mut map = ShadowMap::new(&mut depth, 64);
+                    map.clear();
+                    let mut one = OnePass {
+                        light: &light,
+                        map: &mut map,
+                    };
+                    if everywhere {
+                        render_tg_with(&grid, &frame, &mut OrderedEverywhere(&mut one), out);
+                    } else {
+                        render_tg_with(&grid, &frame, &mut one, out);
+                    }
+                    out.0.sort_unstable();
+                }
+                let shadowed = classes[0].0.iter().filter(|c| c.2).count();
+                assert!(
+                    shadowed > 0 && shadowed < classes[0].0.len(),
+                    "{view:?}: {shadowed} shadowed"
+                );
+                assert!(
+                    classes[0].0 == classes[1].0,
+                    "{view:?} at {cutoff_px} px: classes differ"
+                );
+            }
+        }
     }
 }

@@ -18,16 +18,25 @@ use crate::splat::{SampleSplat, SplatSink, Stats};
 pub trait ShadowHooks {
     /// A node's light-space position (`()` without shadows).
     type Pos: Copy;
-    /// Visit children in [`ShadowHooks::order`] instead of slot order.
-    const ORDERED: bool;
+    /// Whether the children of a view-visible cell at `level` must be visited in
+    /// [`ShadowHooks::order`] instead of slot order: only where visiting order changes what is in
+    /// the shadow map when a sample is tested. Subtrees only the light sees are always walked in
+    /// slot order: their fills keep the nearer depth, so their order cannot matter.
+    #[inline(always)]
+    fn ordered(&self, _level: usize) -> bool {
+        false
+    }
     /// Keep walking subtrees the view culls, to fill the shadow map with what they cast.
     const FILL_CULLED: bool;
     /// Light-space position of the root cell.
     fn root(&self) -> Self::Pos;
     /// Light-space position of child `slot` of a cell at `level - 1` at `parent`.
     fn child(&self, parent: Self::Pos, level: usize, slot: usize) -> Self::Pos;
-    /// The child slots, nearest to the light first.
-    fn order(&self) -> &[u8; MAX_SLOTS];
+    /// The child slots, nearest to the light first, where [`ShadowHooks::ordered`] says so.
+    #[inline(always)]
+    fn order(&self) -> &SlotOrder {
+        &IDENTITY_ORDER
+    }
     /// A sample drawn in the view, with attribute `attr`: returns whether it is in shadow (and may
     /// fill the map).
     fn drawn(&mut self, level: usize, p: Self::Pos, attr: u16) -> bool;
@@ -35,7 +44,7 @@ pub trait ShadowHooks {
     fn casts(&mut self, level: usize, p: Self::Pos);
     /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
     fn light_stop(&self, level: usize) -> bool;
-    /// A cell at `level` whose children have all been visited (light-ordered walks only).
+    /// A cell at `level`, drawn by the view walk or not, whose children have all been visited.
     #[inline(always)]
     fn descended(&mut self, _level: usize, _p: Self::Pos) {}
 }
@@ -46,16 +55,11 @@ pub struct NoShadows;
 
 impl ShadowHooks for NoShadows {
     type Pos = ();
-    const ORDERED: bool = false;
     const FILL_CULLED: bool = false;
     #[inline(always)]
     fn root(&self) {}
     #[inline(always)]
     fn child(&self, _: (), _: usize, _: usize) {}
-    #[inline(always)]
-    fn order(&self) -> &[u8; MAX_SLOTS] {
-        &IDENTITY_ORDER
-    }
     #[inline(always)]
     fn drawn(&mut self, _: usize, _: (), _: u16) -> bool {
         false
@@ -155,14 +159,70 @@ impl NodeData for Resident<'_> {
     fn request_children(&mut self, _: u8, _: u32, _: u32, _: u32, _: i32, _: i32) {}
 }
 
-const IDENTITY_ORDER: [u8; MAX_SLOTS] = {
+/// An order of the ρ³ child slots (Duguet §5.3: nearest to the light first), with the look-up that
+/// visits a cell's present children in it without scanning all 27: the child mask, 7 bits at a
+/// time, maps to the set of the present slots' positions in the order.
+#[derive(Clone, Debug)]
+pub struct SlotOrder {
+    slots: [u8; MAX_SLOTS],
+    /// `positions[c][m]`: bit `i` set where `slots[i]` is one of the slots `7c + b`, `b` a set bit
+    /// of `m`.
+    positions: [[u32; 128]; 4],
+}
+
+impl SlotOrder {
+    /// `slots` must hold each of `0..MAX_SLOTS` once.
+    pub const fn new(slots: [u8; MAX_SLOTS]) -> Self {
+        let mut at = [0u32; 32];
+        let mut i = 0;
+        while i < MAX_SLOTS {
+            at[slots[i] as usize] = 1 << i;
+            i += 1;
+        }
+        let mut positions = [[0u32; 128]; 4];
+        let mut c = 0;
+        while c < 4 {
+            let mut m = 0;
+            while m < 128 {
+                let mut b = 0;
+                while b < 7 {
+                    if m >> b & 1 != 0 {
+                        positions[c][m] |= at[7 * c + b];
+                    }
+                    b += 1;
+                }
+                m += 1;
+            }
+            c += 1;
+        }
+        SlotOrder { slots, positions }
+    }
+
+    /// The slots, in order.
+    pub fn slots(&self) -> &[u8; MAX_SLOTS] {
+        &self.slots
+    }
+
+    /// Where the slots of `mask` are in the order, as a bit set: four look-ups.
+    #[inline(always)]
+    fn positions(&self, mask: u32) -> u32 {
+        let p = &self.positions;
+        p[0][(mask & 127) as usize]
+            | p[1][(mask >> 7 & 127) as usize]
+            | p[2][(mask >> 14 & 127) as usize]
+            | p[3][(mask >> 21 & 127) as usize]
+    }
+}
+
+/// Slot order.
+const IDENTITY_ORDER: SlotOrder = {
     let mut o = [0u8; MAX_SLOTS];
     let mut i = 0;
     while i < MAX_SLOTS {
         o[i] = i as u8;
         i += 1;
     }
-    o
+    SlotOrder::new(o)
 };
 
 /// Draws one frame of `grid` set up by `frame` into `sink`, and returns what it did.
@@ -261,35 +321,20 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         self.data.mask(level, i)
     }
 
-    /// The children of a cell at `level` into `kids[level]` by slot, with their indices and the first
-    /// index of their own children (the group pointer plus a running popcount).
+    /// The children of a cell at `level` into `kids[level]` by slot, for a walk in light order.
     #[inline(always)]
     fn children(&mut self, level: u8, index: u32, mask: u32, first_child: u32) {
-        let next = level + 1;
-        let has_grandchildren = next < self.frame.depth;
-        let mut grand = if has_grandchildren {
-            self.data.group(level, index)
-        } else {
-            0
-        };
-        let mut child = first_child;
-        let mut m = mask;
-        while m != 0 {
-            let s = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let cm = if has_grandchildren {
-                self.mask(next, child)
-            } else {
-                0
-            };
-            self.kids[usize::from(level)][s] = Child {
-                index: child,
-                grand,
-                mask: cm,
-            };
-            grand += cm.count_ones();
-            child += 1;
-        }
+        let l = usize::from(level);
+        self.each_child(
+            level,
+            index,
+            mask,
+            first_child,
+            false,
+            move |walker, s, k| {
+                walker.kids[l][s] = k;
+            },
+        );
     }
 
     /// Visits cell `index` at `level` with child mask `mask`, whose children start at `first_child`
@@ -344,17 +389,17 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         }
         let next = level + 1;
         let disp = &f.disp[usize::from(next)];
-        if H::ORDERED {
-            self.children(level, index, mask, first_child);
-            let order = *self.hooks.order();
-            for s in order {
-                let s = usize::from(s);
-                if mask >> s & 1 == 0 {
-                    continue;
-                }
-                let (k, d) = (self.kids[l][s], disp[s]);
-                let cp = self.hooks.child(p, usize::from(next), s);
-                self.node(
+        let ordered = self.hooks.ordered(l);
+        self.each_child(
+            level,
+            index,
+            mask,
+            first_child,
+            ordered,
+            move |walker, s, k| {
+                let d = disp[s];
+                let cp = walker.hooks.child(p, usize::from(next), s);
+                walker.node(
                     next,
                     k.index,
                     k.mask,
@@ -363,45 +408,69 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
                     cp,
                     inside,
                 );
+            },
+        );
+        self.hooks.descended(l, p);
+    }
+
+    /// Visits the children of cell `index` at `level` (child mask `mask`, children from
+    /// `first_child`): in light order when `ordered`, else in slot order, where the group pointer
+    /// and a running popcount find each child's own children.
+    #[inline(always)]
+    fn each_child(
+        &mut self,
+        level: u8,
+        index: u32,
+        mask: u32,
+        first_child: u32,
+        ordered: bool,
+        mut visit: impl FnMut(&mut Self, usize, Child),
+    ) {
+        if ordered {
+            self.children(level, index, mask, first_child);
+            let mut at = self.hooks.order().positions(mask);
+            while at != 0 {
+                let i = at.trailing_zeros() as usize;
+                at &= at - 1;
+                let s = usize::from(self.hooks.order().slots[i]);
+                let k = self.kids[usize::from(level)][s];
+                visit(self, s, k);
             }
-            self.hooks.descended(l, p);
+            return;
+        }
+        let next = level + 1;
+        let has_grandchildren = next < self.frame.depth;
+        let mut grand = if has_grandchildren {
+            self.data.group(level, index)
         } else {
-            // Children in slot order; the group pointer finds the grandchildren.
-            let has_grandchildren = next < f.depth;
-            let mut grand = if has_grandchildren {
-                self.data.group(level, index)
+            0
+        };
+        let mut child = first_child;
+        let mut m = mask;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let cm = if has_grandchildren {
+                self.mask(next, child)
             } else {
                 0
             };
-            let mut child = first_child;
-            let mut m = mask;
-            while m != 0 {
-                let s = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let d = disp[s];
-                let cm = if has_grandchildren {
-                    self.mask(next, child)
-                } else {
-                    0
-                };
-                let cp = self.hooks.child(p, usize::from(next), s);
-                self.node(
-                    next,
-                    child,
-                    cm,
+            visit(
+                self,
+                s,
+                Child {
+                    index: child,
                     grand,
-                    [x + d[0], y + d[1], w + d[2]],
-                    cp,
-                    inside,
-                );
-                grand += cm.count_ones();
-                child += 1;
-            }
+                    mask: cm,
+                },
+            );
+            grand += cm.count_ones();
+            child += 1;
         }
     }
 
-    /// A subtree seen only by the light: descend in light order to the light's level of detail and
-    /// let every sample there cast into the shadow map.
+    /// A subtree seen only by the light: descend to the light's level of detail and let every
+    /// sample there cast into the shadow map.
     fn cast_only(&mut self, level: u8, index: u32, mask: u32, first_child: u32, p: H::Pos) {
         self.stats.nodes_visited += 1;
         let l = usize::from(level);
@@ -415,17 +484,20 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
             self.hooks.casts(l, p);
             return;
         }
+        // Only the light sees this subtree and fills keep the nearer depth, so the order of its
+        // fills cannot change a test: slot order.
         let next = level + 1;
-        self.children(level, index, mask, first_child);
-        let order = *self.hooks.order();
-        for s in order {
-            let s = usize::from(s);
-            if mask >> s & 1 == 1 {
-                let k = self.kids[l][s];
-                let cp = self.hooks.child(p, usize::from(next), s);
-                self.cast_only(next, k.index, k.mask, k.grand, cp);
-            }
-        }
+        self.each_child(
+            level,
+            index,
+            mask,
+            first_child,
+            false,
+            move |walker, s, k| {
+                let cp = walker.hooks.child(p, usize::from(next), s);
+                walker.cast_only(next, k.index, k.mask, k.grand, cp);
+            },
+        );
     }
 
     /// Screen centre and diameter (Q4 pixels) of a cell at level `l` with projected centre `c`: one
