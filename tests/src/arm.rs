@@ -15,9 +15,8 @@ use std::sync::Mutex;
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::tg::TriGrid;
 use pocketsplat_pda::{
-    render_standard_view, FrameLine, FrameReport, FrameSpec, Phase, Targets, HEIGHT,
+    render_standard_view, FrameLine, FrameReport, FrameSpec, Model, Phase, Targets, HEIGHT,
     SHADOW_MAP_SIZE, WIDTH,
 };
 
@@ -86,18 +85,18 @@ impl HostFrames {
         }
     }
 
-    /// Renders frame `spec` of `grid` as the firmware does.
+    /// Renders frame `spec` of `model` (either format) as the firmware does.
     ///
     /// # Errors
-    /// When the frame cannot be set up.
-    pub fn render(&mut self, grid: &TriGrid<'_>, spec: FrameSpec) -> Result<FrameReport> {
+    /// When the frame cannot be set up (e.g. shadows of a QSplat model).
+    pub fn render(&mut self, model: &Model<'_>, spec: FrameSpec) -> Result<FrameReport> {
         let mut targets = Targets {
             color: &mut self.color,
             depth: &mut self.depth,
             table: &mut self.table,
             shadow: &mut self.shadow,
         };
-        Ok(render_standard_view(grid, spec, &mut targets, |_| {})?)
+        Ok(render_standard_view(model, spec, &mut targets, |_| {})?)
     }
 }
 
@@ -117,7 +116,7 @@ pub struct Firmware<'a> {
     pub target: &'a str,
     /// Cargo features of pocketsplat-pda.
     pub features: &'a [&'a str],
-    /// Baked `.tg` file for `POCKETSPLAT_PDA_MODEL`.
+    /// Baked `.tg` or `.qs` file for `POCKETSPLAT_PDA_MODEL` (a `.qs` needs the `qsplat` feature).
     pub model: Option<&'a Path>,
 }
 

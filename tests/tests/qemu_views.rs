@@ -15,7 +15,7 @@ use pocketsplat_core::camera::STANDARD_VIEWS;
 use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_pda::{
-    frame_specs_for, FrameReport, FrameSpec, Shadows, CUTOFFS_PX, SHADOW_MAP_SIZE,
+    frame_specs_for, FrameReport, FrameSpec, Model, Shadows, CUTOFFS_PX, SHADOW_MAP_SIZE,
 };
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 use pocketsplat_tests::arm::{
@@ -56,7 +56,7 @@ fn firmware_matches_host(
     );
 
     let bytes = std::fs::read(&model).unwrap();
-    let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+    let grid = Model::from(TriGrid::open(&bytes, Verify::Full).unwrap());
     let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
     let mut host = HostFrames::new();
     let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
@@ -160,7 +160,7 @@ fn firmware_frames_are_the_simulators_frames() {
     let mut host = HostFrames::new();
     let mut sim = FrameBuffers::new();
     for spec in frame_specs_for(&Shadows::ALL) {
-        let ours = host.render(&grid, spec).unwrap();
+        let ours = host.render(&grid.into(), spec).unwrap();
         let settings = Settings {
             view: STANDARD_VIEWS[spec.view].1,
             cutoff_px: f32::from(spec.cutoff_px),

@@ -24,7 +24,7 @@ use std::process::{Command, ExitCode};
 
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Phase, Shadows};
+use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Model, Phase, Shadows};
 use pocketsplat_tests::arm::{
     baked_bunny, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
     FrameCost, HostFrames, BENCH_TARGETS,
@@ -107,15 +107,15 @@ struct Row {
     memory: Memory,
 }
 
-/// A grid and the host's buffers, to render the frames the firmware must match.
-struct Host<'g> {
-    grid: &'g TriGrid<'g>,
+/// A model and the host's buffers, to render the frames the firmware must match.
+struct Host<'m> {
+    model: Model<'m>,
     frames: HostFrames,
 }
 
 impl Host<'_> {
     fn render(&mut self, spec: FrameSpec) -> Result<FrameReport> {
-        self.frames.render(self.grid, spec)
+        self.frames.render(&self.model, spec)
     }
 }
 
@@ -378,7 +378,7 @@ fn run() -> Result<()> {
     }
     let counter = Counter::build()?;
     let mut host = Host {
-        grid: &grid,
+        model: grid.into(),
         frames: HostFrames::new(),
     };
     for target in &args.targets {
