@@ -3,9 +3,10 @@
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
 //!   every other crate of the workspace never see it (STYLE.md 2).
-//! - With the `model` feature, `POCKETSPLAT_PDA_MODEL` names a baked `.tg` file; its absolute path is
-//!   handed to the firmware as `POCKETSPLAT_PDA_MODEL_FILE`, which `include_bytes!` links into
-//!   `.psram`. A feature rather than the variable alone, so that the builds with and without a model
+//! - With the `model` feature, `POCKETSPLAT_PDA_MODEL` names a baked `.tg` or `.qs` file; its absolute
+//!   path is handed to the firmware as `POCKETSPLAT_PDA_MODEL_FILE`, which `include_bytes!` links into
+//!   `.psram`. The firmware tells the format by the magic at run time; a `.qs` file without the
+//!   `qsplat` feature is refused here, where the fix (the feature) can be named. A feature rather than the variable alone, so that the builds with and without a model
 //!   are separate artifacts that cargo keeps side by side instead of rebuilding on every switch.
 
 use std::env;
@@ -48,7 +49,7 @@ fn model() {
     println!("cargo:rerun-if-env-changed={VAR}");
     let Some(path) = env::var_os(VAR) else {
         panic!(
-            "the `model` feature needs {VAR}=<baked .tg file> \
+            "the `model` feature needs {VAR}=<baked .tg or .qs file> \
              (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)"
         );
     };
@@ -62,8 +63,24 @@ fn model() {
         .canonicalize()
         .unwrap_or_else(|e| panic!("{VAR}={}: {e}", path.display()));
     println!("cargo:rerun-if-changed={}", path.display());
+    if is_qsplat(&path) && env::var_os("CARGO_FEATURE_QSPLAT").is_none() {
+        panic!(
+            "{VAR}={} is a QSplat file: build with `--features model,qsplat`",
+            path.display()
+        );
+    }
     println!(
         "cargo:rustc-env=POCKETSPLAT_PDA_MODEL_FILE={}",
         path.display()
     );
+}
+
+/// Whether the file at `path` starts like a QSplat file (`QSplat`, as
+/// `pocketsplat_pda::QSPLAT_MAGIC_PREFIX`); an unreadable file is left for `include_bytes!` to report.
+fn is_qsplat(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 6];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok_and(|()| &magic == b"QSplat")
 }

@@ -14,10 +14,10 @@ use std::sync::Mutex;
 
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
+use pocketsplat_core::qs::write::QsBakeOptions;
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::tg::TriGrid;
 use pocketsplat_pda::{
-    render_standard_view, FrameLine, FrameReport, FrameSpec, Phase, Targets, HEIGHT,
+    render_standard_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase, Targets, HEIGHT,
     SHADOW_MAP_SIZE, WIDTH,
 };
 
@@ -86,18 +86,18 @@ impl HostFrames {
         }
     }
 
-    /// Renders frame `spec` of `grid` as the firmware does.
+    /// Renders frame `spec` of `model` (either format) as the firmware does.
     ///
     /// # Errors
-    /// When the frame cannot be set up.
-    pub fn render(&mut self, grid: &TriGrid<'_>, spec: FrameSpec) -> Result<FrameReport> {
+    /// When the frame cannot be set up (e.g. shadows of a QSplat model).
+    pub fn render(&mut self, model: &Model<'_>, spec: FrameSpec) -> Result<FrameReport> {
         let mut targets = Targets {
             color: &mut self.color,
             depth: &mut self.depth,
             table: &mut self.table,
             shadow: &mut self.shadow,
         };
-        Ok(render_standard_view(grid, spec, &mut targets, |_| {})?)
+        Ok(render_standard_view(model, spec, &mut targets, |_| {})?)
     }
 }
 
@@ -117,7 +117,7 @@ pub struct Firmware<'a> {
     pub target: &'a str,
     /// Cargo features of pocketsplat-pda.
     pub features: &'a [&'a str],
-    /// Baked `.tg` file for `POCKETSPLAT_PDA_MODEL`.
+    /// Baked `.tg` or `.qs` file for `POCKETSPLAT_PDA_MODEL` (a `.qs` needs the `qsplat` feature).
     pub model: Option<&'a Path>,
 }
 
@@ -354,23 +354,48 @@ pub fn have_qemu() -> bool {
 }
 
 /// The bunny baked at paper level 5 (tri-grid depth 6) in `target/arm/models/bunny-d6.tg`, or `None`
-/// off CI when the scan is missing ([`model`]).
+/// off CI when the scan is missing ([`model`]): [`baked_bunny_as`] [`Format::TriGrid`].
+///
+/// # Errors
+/// When the scan cannot be read or baked, or the file cannot be written.
+pub fn baked_bunny() -> Result<Option<PathBuf>> {
+    baked_bunny_as(Format::TriGrid)
+}
+
+/// The bunny baked in `format` into `target/arm/models/`: a tri-grid at paper level 5 (depth 6,
+/// `bunny-d6.tg`), or a QSplat file as `pocketsplat bake --format qsplat` bakes it (the default
+/// options, as `tests/tests/qsplat.rs`; `bunny.qs`). `None` off CI when the scan is missing
+/// ([`model`]).
 ///
 /// Baked afresh every time (a few seconds), so the file always matches the current baker; written
 /// only when its bytes change, so that cargo does not relink the firmware that includes it.
 ///
 /// # Errors
 /// When the scan cannot be read or baked, or the file cannot be written.
-pub fn baked_bunny() -> Result<Option<PathBuf>> {
+pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
     static BAKE: Mutex<()> = Mutex::new(());
     let Some(mesh) = model("bun_zipper.ply.gz") else {
         return Ok(None);
     };
     let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
-    let out = target_dir().join("models/bunny-d6.tg");
-    let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
-    let (_, bytes) =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)?;
+    let (name, bytes) = match format {
+        Format::TriGrid => {
+            let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
+            let (_, bytes) = pocketsplat_sim::cmd::bake::bake_mesh(
+                &mesh,
+                BakeOptions { rho: 3, depth: 6 },
+                12,
+                false,
+            )?;
+            ("bunny-d6.tg", bytes)
+        }
+        Format::QSplat => {
+            let report =
+                pocketsplat_sim::cmd::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
+            ("bunny.qs", report.baked.bytes)
+        }
+    };
+    let out = target_dir().join("models").join(name);
     if fs::read(&out).ok().as_deref() != Some(&bytes[..]) {
         fs::create_dir_all(out.parent().expect("a parent"))?;
         pocketsplat_sim::fsutil::write_atomic(&out, &bytes)

@@ -1,9 +1,10 @@
-//! The bunny under QEMU: the firmware, with the bunny baked at paper level 5 (tri-grid depth 6)
-//! linked into PSRAM, renders the four standard views at each cutoff (and, built with shadows, with
-//! one-pass and two-pass shadows) and prints one CRC per frame; the host renders the same frames
-//! through the same library function (`pocketsplat_pda::render_standard_view`) and every CRC must be
-//! identical, or the test fails naming the first frame that differs. The host function itself is
-//! checked against the simulator's renderer, which the golden images come from.
+//! The bunny under QEMU: the firmware, with the bunny baked at paper level 5 (tri-grid depth 6), or
+//! baked to QSplat (`.qs`, `pocketsplat bake --format qsplat`'s defaults), linked into PSRAM, renders
+//! the four standard views at each cutoff (and, a tri-grid built with shadows, with one-pass and
+//! two-pass shadows) and prints one CRC per frame; the host renders the same frames through the same
+//! library function (`pocketsplat_pda::render_standard_view`) and every CRC must be identical, or the
+//! test fails naming the first frame that differs. The host function itself is checked against the
+//! simulator's renderer (`pocketsplat render`), which the golden images come from, for both formats.
 //!
 //! Needs `qemu-system-arm`, a C compiler (the instruction counter) and the bunny scan: without them
 //! these tests fail under CI and are skipped, with a note, elsewhere.
@@ -12,27 +13,42 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use pocketsplat_core::camera::STANDARD_VIEWS;
+use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_pda::{
-    frame_specs_for, FrameReport, FrameSpec, Shadows, CUTOFFS_PX, SHADOW_MAP_SIZE,
+    frame_specs_for, Format, FrameReport, FrameSpec, Model, Shadows, ViewError, CUTOFFS_PX,
+    SHADOW_MAP_SIZE,
 };
+use pocketsplat_sim::qsplat::render_qs_frame;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 use pocketsplat_tests::arm::{
-    baked_bunny, check_memory, frame_costs, have_qemu, Counter, Firmware, FrameCost, HostFrames,
+    baked_bunny_as, check_memory, frame_costs, have_qemu, Counter, Firmware, FrameCost, HostFrames,
     TARGET,
 };
 
-/// The baked bunny, once per test binary.
+/// The bunny baked as a tri-grid, once per test binary.
 fn bunny() -> Option<PathBuf> {
     static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
-    BUNNY.get_or_init(|| baked_bunny().unwrap()).clone()
+    BUNNY
+        .get_or_init(|| baked_bunny_as(Format::TriGrid).unwrap())
+        .clone()
 }
 
-/// Builds the firmware with the bunny and `features`, boots it (counting instructions with
-/// `counter`), and compares its frames, `modes` of each view at each cutoff, with the host's.
-/// Returns the frames with their instruction counts when counted.
+/// The bunny baked as a QSplat file, once per test binary.
+fn qs_bunny() -> Option<PathBuf> {
+    static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
+    BUNNY
+        .get_or_init(|| baked_bunny_as(Format::QSplat).unwrap())
+        .clone()
+}
+
+/// Builds the firmware with `model` (a baked bunny, `None` when the scan is missing) and
+/// `features`, boots it (counting instructions with `counter`), and compares its frames, `modes` of
+/// each view at each cutoff, with the host's. Returns the frames with their instruction counts
+/// when counted.
 fn firmware_matches_host(
+    model: impl FnOnce() -> Option<PathBuf>,
     features: &[&str],
     modes: &'static [Shadows],
     counter: Option<&Counter>,
@@ -40,7 +56,7 @@ fn firmware_matches_host(
     if !have_qemu() {
         return None;
     }
-    let model = bunny()?;
+    let model = model()?;
     let fw = Firmware {
         target: TARGET,
         features,
@@ -56,11 +72,11 @@ fn firmware_matches_host(
     );
 
     let bytes = std::fs::read(&model).unwrap();
-    let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
+    let host_model = Model::open(&bytes, Verify::Full).unwrap();
     let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
     let mut host = HostFrames::new();
     let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
-        host.render(&grid, spec)
+        host.render(&host_model, spec)
     })
     .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));
 
@@ -88,10 +104,23 @@ fn firmware_matches_host(
 
 #[test]
 fn bunny_views_on_arm_match_the_host() {
-    let Some(frames) = firmware_matches_host(&[], &[Shadows::Off], None) else {
+    let Some(frames) = firmware_matches_host(bunny, &[], &[Shadows::Off], None) else {
         return;
     };
     assert_eq!(frames.len(), STANDARD_VIEWS.len() * CUTOFFS_PX.len());
+}
+
+/// The QSplat bunny: the firmware built with `qsplat` tells the format by its magic and renders
+/// every view at every cutoff, without shadows (tri-grid only), to the host's CRCs.
+#[test]
+fn qsplat_bunny_views_on_arm_match_the_host() {
+    let Some(frames) = firmware_matches_host(qs_bunny, &["qsplat"], &[Shadows::Off], None) else {
+        return;
+    };
+    assert_eq!(frames.len(), STANDARD_VIEWS.len() * CUTOFFS_PX.len());
+    for (r, _) in &frames {
+        assert!(r.stats.splats > 0, "{:?} draws nothing", r.spec);
+    }
 }
 
 /// With shadows on, every frame still matches (issue 5: "QEMU CRC equality holds with shadows on"),
@@ -107,7 +136,8 @@ fn shadowed_bunny_views_on_arm_match_the_host() {
         return;
     }
     let counter = Counter::build().unwrap();
-    let Some(frames) = firmware_matches_host(&["shadows"], &Shadows::ALL, Some(&counter)) else {
+    let Some(frames) = firmware_matches_host(bunny, &["shadows"], &Shadows::ALL, Some(&counter))
+    else {
         return;
     };
     let cost = |spec: FrameSpec| -> u64 {
@@ -160,7 +190,7 @@ fn firmware_frames_are_the_simulators_frames() {
     let mut host = HostFrames::new();
     let mut sim = FrameBuffers::new();
     for spec in frame_specs_for(&Shadows::ALL) {
-        let ours = host.render(&grid, spec).unwrap();
+        let ours = host.render(&grid.into(), spec).unwrap();
         let settings = Settings {
             view: STANDARD_VIEWS[spec.view].1,
             cutoff_px: f32::from(spec.cutoff_px),
@@ -179,4 +209,44 @@ fn firmware_frames_are_the_simulators_frames() {
             "{spec:?}: the firmware's frame differs from the simulator's"
         );
     }
+}
+
+/// The QSplat frames the firmware renders are `pocketsplat render`'s of the `.qs` file: same CRC,
+/// same counts, every view and cutoff; asked for shadows, the frame is refused, not drawn.
+#[test]
+fn firmware_qsplat_frames_are_the_simulators_frames() {
+    let Some(model) = qs_bunny() else {
+        return;
+    };
+    let bytes = std::fs::read(&model).unwrap();
+    let file = QSplat::open(&bytes).unwrap();
+    let ours_model = Model::open(&bytes, Verify::Full).unwrap();
+    assert_eq!(ours_model.format(), Format::QSplat);
+    assert_eq!(ours_model.shadow_modes(), &[Shadows::Off]);
+    let mut host = HostFrames::new();
+    let mut sim = FrameBuffers::new();
+    for spec in ours_model.frame_specs() {
+        let ours = host.render(&ours_model, spec).unwrap();
+        let settings = Settings {
+            view: STANDARD_VIEWS[spec.view].1,
+            cutoff_px: f32::from(spec.cutoff_px),
+            ..Settings::default()
+        };
+        let theirs = render_qs_frame(&file, &settings, &mut sim).unwrap();
+        assert_eq!(
+            (ours.crc, ours.stats),
+            (sim.crc(), theirs.stats),
+            "{spec:?}: the firmware's QSplat frame differs from the simulator's"
+        );
+    }
+    let shadowed = FrameSpec {
+        view: 0,
+        cutoff_px: 1,
+        shadows: Shadows::OnePass,
+    };
+    let err = host.render(&ours_model, shadowed).unwrap_err();
+    assert_eq!(
+        err.downcast_ref::<ViewError>(),
+        Some(&ViewError::NoShadows(Format::QSplat, Shadows::OnePass))
+    );
 }

@@ -5,9 +5,10 @@
 //! print under QEMU by calling the very same functions (DESIGN.md: the ARM build and the host build
 //! render the same frames to the same CRC).
 //!
-//! - [`views`]: the four standard views of a resident tri-grid at several cutoffs (and, with the
-//!   `shadows` feature, with one-pass and two-pass shadows), the frames the firmware renders when a
-//!   baked model is linked in, and the line it prints per frame.
+//! - [`views`]: the four standard views of a resident [`Model`] (a tri-grid or, with the `qsplat`
+//!   feature, a QSplat file, told apart by its magic) at several cutoffs (and, for a tri-grid with
+//!   the `shadows` feature, with one-pass and two-pass shadows), the frames the firmware renders when
+//!   a baked model is linked in, and the line it prints per frame.
 //! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
 //!   background), drawn when the firmware is built without a model.
 //!
@@ -26,8 +27,9 @@
 pub mod views;
 
 pub use views::{
-    frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, FrameLine, FrameReport,
-    FrameSpec, Phase, Shadows, Targets, CUTOFFS_PX, SHADOW_MAP_SIZE, SHADOW_MODES,
+    frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, Format, FrameLine,
+    FrameReport, FrameSpec, Model, ModelError, Phase, Shadows, Targets, ViewError, CUTOFFS_PX,
+    QSPLAT_MAGIC_PREFIX, SHADOW_MAP_SIZE, SHADOW_MODES,
 };
 
 use pocketsplat_core::crc::Crc32;

@@ -1,11 +1,12 @@
 //! pocketsplat firmware for QEMU's mps2-an385 (Cortex-M3, no FPU), the reference ARM board in CI.
 //!
-//! With the `model` feature (and `POCKETSPLAT_PDA_MODEL`, see build.rs) a baked tri-grid is linked
-//! into PSRAM and the firmware renders the four standard views at each cutoff of
-//! [`pocketsplat_pda::CUTOFFS_PX`] into static colour and depth buffers, printing one
+//! With the `model` feature (and `POCKETSPLAT_PDA_MODEL`, see build.rs) a baked tri-grid, or with
+//! the `qsplat` feature also a QSplat file (the magic tells which), is linked into PSRAM and the
+//! firmware renders the four standard views at each cutoff of [`pocketsplat_pda::CUTOFFS_PX`] into
+//! static colour and depth buffers, printing one
 //! `frame <view> cutoff <px> shadows <mode> crc 0x… splats N nodes N` line per frame; with the
-//! `shadows` feature too, every view is also rendered with one-pass and two-pass shadows into a
-//! static shadow map. Without a model it draws frame 0
+//! `shadows` feature too, every view of a tri-grid is also rendered with one-pass and two-pass
+//! shadows into a static shadow map (a QSplat file renders without). Without a model it draws frame 0
 //! of the test pattern and prints `frame 0 crc 0x…`. Either way it then prints its memory use
 //! (`ram_bytes`, `stack_bytes`, `flash_bytes`, `psram_bytes`) over semihosting and exits QEMU with
 //! status 0. A panic or a HardFault prints what happened and exits with a failure status, so a QEMU
@@ -81,26 +82,43 @@ mod firmware {
     /// The standard views of the linked-in model, one line per frame.
     #[cfg(feature = "model")]
     fn render_model(mut targets: Targets<'_>) {
-        use pocketsplat_core::tg::{TriGrid, Verify};
-        use pocketsplat_pda::{frame_specs, render_standard_view};
+        use pocketsplat_core::tg::Verify;
+        use pocketsplat_pda::{render_standard_view, Model};
 
         // Opaque: the bytes are a known constant, and the compiler must not fold any of the parse.
         let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
-        // The header CRC and the structure; the 5 MB data CRC pass is for untrusted sources.
-        let grid = match TriGrid::open(bytes, Verify::Structure) {
-            Ok(grid) => grid,
+        // Of a tri-grid, the header CRC and the structure; the 5 MB data CRC pass is for untrusted
+        // sources. A QSplat file is checked whole (its reader has one level).
+        let model = match Model::open(bytes, Verify::Structure) {
+            Ok(model) => model,
             Err(e) => fail(format_args!("model: {e}")),
         };
-        let h = grid.header();
-        hprintln!(
-            "model bytes {} rho {} depth {} samples {}",
-            bytes.len(),
-            h.rho,
-            h.depth,
-            grid.total_samples()
-        );
-        for spec in frame_specs() {
-            match render_standard_view(&grid, spec, &mut targets, marks::hit) {
+        match &model {
+            Model::TriGrid(grid) => {
+                let h = grid.header();
+                hprintln!(
+                    "model bytes {} rho {} depth {} samples {}",
+                    bytes.len(),
+                    h.rho,
+                    h.depth,
+                    grid.total_samples()
+                );
+            }
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(file) => {
+                let c = file.counts();
+                hprintln!(
+                    "model bytes {} qsplat trees {} depth {} leaves {} interior {}",
+                    bytes.len(),
+                    c.trees,
+                    c.max_depth,
+                    c.leaves,
+                    c.interior
+                );
+            }
+        }
+        for spec in model.frame_specs() {
+            match render_standard_view(&model, spec, &mut targets, marks::hit) {
                 Ok(report) => hprintln!("{}", report),
                 Err(e) => fail(format_args!("frame {spec:?}: {e}")),
             }
@@ -133,7 +151,7 @@ mod firmware {
     /// The baked model, in PSRAM (memory.x), loaded by QEMU with the rest of the ELF.
     #[cfg(feature = "model")]
     mod model {
-        /// The `.tg` file named by `POCKETSPLAT_PDA_MODEL` at build time.
+        /// The `.tg` or `.qs` file named by `POCKETSPLAT_PDA_MODEL` at build time.
         #[link_section = ".psram"]
         pub static MODEL: [u8; include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE")).len()] =
             *include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE"));
@@ -306,14 +324,14 @@ mod firmware {
 }
 
 /// Host twin: prints the lines the firmware prints. With no argument, frame 0 of the test pattern;
-/// with the path of a baked `.tg` file, the standard views of that model (as the firmware built with
-/// it as `POCKETSPLAT_PDA_MODEL` does).
+/// with the path of a baked `.tg` (or, with `qsplat`, `.qs`) file, the standard views of that model
+/// (as the firmware built with it as `POCKETSPLAT_PDA_MODEL` does).
 #[cfg(not(all(target_arch = "arm", target_os = "none")))]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     use pocketsplat_core::shade::ShadingTable;
-    use pocketsplat_core::tg::{TriGrid, Verify};
+    use pocketsplat_core::tg::Verify;
     use pocketsplat_pda::{
-        frame_crc, frame_specs, render_standard_view, render_test_frame, FrameCrc, Targets, HEIGHT,
+        frame_crc, render_standard_view, render_test_frame, FrameCrc, Model, Targets, HEIGHT,
         PIXELS, WIDTH,
     };
 
@@ -335,7 +353,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     };
     let bytes = std::fs::read(&path)?;
-    let grid = TriGrid::open(&bytes, Verify::Structure)?;
+    let model = Model::open(&bytes, Verify::Structure)?;
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]
     let mut shadow =
@@ -347,10 +365,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         #[cfg(feature = "shadows")]
         shadow: &mut shadow,
     };
-    for spec in frame_specs() {
+    for spec in model.frame_specs() {
         println!(
             "{}",
-            render_standard_view(&grid, spec, &mut targets, |_| {})?
+            render_standard_view(&model, spec, &mut targets, |_| {})?
         );
     }
     Ok(())

@@ -1,31 +1,39 @@
-//! The standard views of a memory-resident tri-grid, rendered by one function that the firmware and
+//! The standard views of a memory-resident model, rendered by one function that the firmware and
 //! the host tests both call, so that an ARM frame and a host frame can only differ by what the two
 //! machines compute, never by what the code asks them to (DESIGN.md: same frames, same CRC).
 //!
-//! A frame is what `pocketsplat-sim`'s `render_tg_with` does with default settings (square kernel,
-//! default material and light, 45° field of view, a [`SHADOW_MAP_SIZE`]² shadow map): the camera
-//! from the header's bounds, [`TgFrame::new`] (and the light's tables when shadows are on),
-//! [`ShadingTable::update`], clear, [`render_tg`] (or the shadowed walk), CRC. The steps are
-//! separated by [`Phase`] marks, which the firmware turns into calls of marker functions so that an
-//! instruction counter in QEMU can attribute the cost of each step.
+//! A [`Model`] is a tri-grid (`.tg`) or, with the `qsplat` feature, a QSplat file (`.qs`), told apart
+//! by its magic at run time ([`Model::open`]). A frame is what `pocketsplat-sim`'s `render_tg_with`
+//! (or `render_qs_with`) does with default settings (square kernel, default material and light, 45°
+//! field of view, a [`SHADOW_MAP_SIZE`]² shadow map): the camera from the model's bounds, the
+//! format's per-frame tables ([`TgFrame::new`] and the light's tables when shadows are on, or
+//! [`QsFrame::new`]), [`ShadingTable::update`], clear, the format's traversal, CRC. Camera, light,
+//! shading table and clearing are one code path for both formats; only the per-frame tables and the
+//! traversal are the format's. The steps are separated by [`Phase`] marks, which the firmware turns
+//! into calls of marker functions so that an instruction counter in QEMU can attribute the cost of
+//! each step.
 //!
-//! Shadows need the `shadows` feature (which turns on `pocketsplat-core/shadows`); without it,
-//! [`SHADOW_MODES`] holds [`Shadows::Off`] only and no shadow code is linked (DESIGN.md: leave out
-//! what a scene does not need).
+//! Shadows need a tri-grid and the `shadows` feature (which turns on `pocketsplat-core/shadows`);
+//! without it, [`SHADOW_MODES`] holds [`Shadows::Off`] only and no shadow code is linked (DESIGN.md:
+//! leave out what a scene does not need). A QSplat model renders [`Shadows::Off`] only
+//! ([`Model::shadow_modes`]).
 
 use core::fmt;
 
 use pocketsplat_core::camera::{
     self, Camera, Placement, Sphere, View, DEFAULT_FOV_DEG, STANDARD_VIEWS,
 };
+#[cfg(feature = "qsplat")]
+use pocketsplat_core::qs::{
+    render_qs_colored, shading_material, QSplat, QsError, QsFrame, QsFrameError, QsRenderOptions,
+};
 use pocketsplat_core::raster::{Framebuffer, Kernel};
-use pocketsplat_core::shade::{ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
-use pocketsplat_core::splat::{ShadedRaster, Stats};
-use pocketsplat_core::tg::{render_tg, FrameError, RenderOptions, TgFrame, TriGrid};
+use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 #[cfg(feature = "shadows")]
-use pocketsplat_core::{
-    shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode},
-    tg::Header,
+use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
+use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::tg::{
+    render_tg, FrameError, RenderOptions, TgError, TgFrame, TriGrid, Verify,
 };
 
 use crate::{HEIGHT, WIDTH};
@@ -104,8 +112,9 @@ impl FrameSpec {
     }
 }
 
-/// The frames the firmware renders, in order: each standard view, in each mode of [`SHADOW_MODES`],
-/// at each cutoff of [`CUTOFFS_PX`] ([`frame_specs_for`] of [`SHADOW_MODES`]).
+/// The frames the firmware renders of a tri-grid, in order: each standard view, in each mode of
+/// [`SHADOW_MODES`], at each cutoff of [`CUTOFFS_PX`] ([`frame_specs_for`] of [`SHADOW_MODES`]; for
+/// any model, [`Model::frame_specs`]).
 pub fn frame_specs() -> impl Iterator<Item = FrameSpec> {
     frame_specs_for(SHADOW_MODES)
 }
@@ -258,24 +267,214 @@ impl<'a> FrameLine<'a> {
     }
 }
 
-/// Renders frame `spec` of `grid` into `targets` and checksums it ([`render_view`] of the standard
+/// How every QSplat file starts (`QSplat11` for version 11; `reference/qsplat-format.md`).
+pub const QSPLAT_MAGIC_PREFIX: [u8; 6] = *b"QSplat";
+
+/// The file formats a [`Model`] can be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Format {
+    /// Tri-grid (`.tg`).
+    TriGrid,
+    /// QSplat 1.0 (`.qs`).
+    QSplat,
+}
+
+impl Format {
+    /// Both formats.
+    pub const ALL: [Format; 2] = [Format::TriGrid, Format::QSplat];
+
+    /// `tg` or `qsplat` (the names of `pocketsplat bake --format`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::TriGrid => "tg",
+            Format::QSplat => "qsplat",
+        }
+    }
+
+    /// The format called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// The format of a file from its first bytes: [`Format::QSplat`] when they are
+    /// [`QSPLAT_MAGIC_PREFIX`], otherwise [`Format::TriGrid`] (whose reader checks its own magic).
+    pub fn of(bytes: &[u8]) -> Self {
+        if bytes.starts_with(&QSPLAT_MAGIC_PREFIX) {
+            Format::QSplat
+        } else {
+            Format::TriGrid
+        }
+    }
+}
+
+/// A validated, memory-resident model: what the views draw.
+// Unboxed: there is no heap, and a firmware holds one model (a tri-grid's header and level
+// directory are its largest part, about 300 bytes).
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+pub enum Model<'a> {
+    /// A tri-grid.
+    TriGrid(TriGrid<'a>),
+    /// A QSplat file.
+    #[cfg(feature = "qsplat")]
+    QSplat(QSplat<'a>),
+}
+
+impl<'a> From<TriGrid<'a>> for Model<'a> {
+    fn from(grid: TriGrid<'a>) -> Self {
+        Model::TriGrid(grid)
+    }
+}
+
+#[cfg(feature = "qsplat")]
+impl<'a> From<QSplat<'a>> for Model<'a> {
+    fn from(file: QSplat<'a>) -> Self {
+        Model::QSplat(file)
+    }
+}
+
+impl<'a> Model<'a> {
+    /// Opens `bytes` in the format its magic names ([`Format::of`]); `verify` is how much of a
+    /// tri-grid to check (a QSplat file is always checked whole: its reader has one level).
+    ///
+    /// # Errors
+    /// When the file is not a valid model of its format, or is a QSplat file and this build has no
+    /// `qsplat` feature.
+    pub fn open(bytes: &'a [u8], verify: Verify) -> Result<Self, ModelError> {
+        match Format::of(bytes) {
+            Format::TriGrid => TriGrid::open(bytes, verify)
+                .map(Model::TriGrid)
+                .map_err(ModelError::TriGrid),
+            #[cfg(feature = "qsplat")]
+            Format::QSplat => QSplat::open(bytes)
+                .map(Model::QSplat)
+                .map_err(ModelError::QSplat),
+            #[cfg(not(feature = "qsplat"))]
+            Format::QSplat => Err(ModelError::QSplatNotBuilt),
+        }
+    }
+
+    /// The model's format.
+    pub fn format(&self) -> Format {
+        match self {
+            Model::TriGrid(_) => Format::TriGrid,
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(_) => Format::QSplat,
+        }
+    }
+
+    /// The model's bounding box (min, max corners), which frames the standard views.
+    pub fn bounds(&self) -> [[f32; 3]; 2] {
+        match self {
+            Model::TriGrid(grid) => grid.header().bounds,
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(file) => file.bounds(),
+        }
+    }
+
+    /// The shadow modes this build renders the model in: [`SHADOW_MODES`] for a tri-grid,
+    /// [`Shadows::Off`] for a QSplat file (shadows are tri-grid only).
+    pub fn shadow_modes(&self) -> &'static [Shadows] {
+        match self {
+            Model::TriGrid(_) => SHADOW_MODES,
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(_) => &[Shadows::Off],
+        }
+    }
+
+    /// The frames the firmware renders of this model, in order ([`frame_specs_for`] of
+    /// [`Model::shadow_modes`]).
+    pub fn frame_specs(&self) -> impl Iterator<Item = FrameSpec> {
+        frame_specs_for(self.shadow_modes())
+    }
+
+    /// The material every sample is shaded with: the default, in white for a coloured QSplat file
+    /// (`pocketsplat render`'s rule, [`shading_material`]).
+    fn material(&self) -> Material {
+        match self {
+            Model::TriGrid(_) => DEFAULT_MATERIAL,
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(file) => shading_material(file, DEFAULT_MATERIAL),
+        }
+    }
+}
+
+/// Why a model cannot be opened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelError {
+    /// Not a valid tri-grid.
+    TriGrid(TgError),
+    /// Not a valid QSplat file.
+    #[cfg(feature = "qsplat")]
+    QSplat(QsError),
+    /// A QSplat file, and this build has no `qsplat` feature.
+    QSplatNotBuilt,
+}
+
+impl core::error::Error for ModelError {}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModelError::TriGrid(e) => write!(f, "tri-grid: {e}"),
+            #[cfg(feature = "qsplat")]
+            ModelError::QSplat(e) => write!(f, "QSplat: {e}"),
+            ModelError::QSplatNotBuilt => {
+                write!(f, "a QSplat file: this build has no `qsplat` feature")
+            }
+        }
+    }
+}
+
+/// Why a frame cannot be set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ViewError {
+    /// The tri-grid's frame ([`FrameError`]: ρ above 3, degenerate bounds, a cutoff that is not
+    /// positive).
+    TriGrid(FrameError),
+    /// The QSplat file's frame ([`QsFrameError`]: degenerate bounds, a cutoff that is not positive).
+    #[cfg(feature = "qsplat")]
+    QSplat(QsFrameError),
+    /// Shadows asked of a QSplat model (shadows are tri-grid only), or of a build without the
+    /// `shadows` feature.
+    NoShadows(Format, Shadows),
+}
+
+impl core::error::Error for ViewError {}
+
+impl fmt::Display for ViewError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ViewError::TriGrid(e) => write!(f, "{e}"),
+            #[cfg(feature = "qsplat")]
+            ViewError::QSplat(e) => write!(f, "{e}"),
+            ViewError::NoShadows(format, shadows) => write!(
+                f,
+                "shadows {} of a {} model: shadows need a tri-grid and the `shadows` feature",
+                shadows.name(),
+                format.name()
+            ),
+        }
+    }
+}
+
+/// Renders frame `spec` of `model` into `targets` and checksums it ([`render_view`] of the standard
 /// view at the spec's cutoff, then the CRC of the colour buffer, after [`Phase::End`]).
 ///
 /// # Errors
-/// When the frame cannot be set up ([`FrameError`]: ρ above 3, degenerate bounds).
-///
-/// # Panics
-/// When `spec` asks for shadows from a build without the `shadows` feature (no [`frame_specs`] of
-/// such a build does).
+/// When the frame cannot be set up ([`ViewError`]), e.g. shadows of a QSplat model.
 pub fn render_standard_view(
-    grid: &TriGrid<'_>,
+    model: &Model<'_>,
     spec: FrameSpec,
     targets: &mut Targets<'_>,
     mark: impl FnMut(Phase),
-) -> Result<FrameReport, FrameError> {
+) -> Result<FrameReport, ViewError> {
     let (_, view) = STANDARD_VIEWS[spec.view];
     let frame = render_view(
-        grid,
+        model,
         view,
         f32::from(spec.cutoff_px),
         spec.shadows,
@@ -300,46 +499,35 @@ pub struct Drawn {
     pub table_rebuilt: bool,
 }
 
-/// Renders `grid` seen from the orbit `view` at `cutoff_px` into `targets` with the defaults of
+/// The splat kernel of every frame (`pocketsplat render`'s default).
+const KERNEL: Kernel = Kernel::Square;
+
+/// Renders `model` seen from the orbit `view` at `cutoff_px` into `targets` with the defaults of
 /// `pocketsplat render` (square kernel, default material and light, 45° field of view). `mark` is
 /// called at the start of each [`Phase`] and at [`Phase::End`]. The firmware's standard views and a
-/// handheld's interactive camera draw through this one function.
+/// handheld's interactive camera draw through this one function, for either format.
 ///
 /// # Errors
-/// When the frame cannot be set up ([`FrameError`]: ρ above 3, degenerate bounds, a cutoff that is
-/// not positive).
-///
-/// # Panics
-/// When `shadows` is not [`Shadows::Off`] in a build without the `shadows` feature.
+/// When the frame cannot be set up ([`ViewError`]: ρ above 3, degenerate bounds, a cutoff that is
+/// not positive, shadows of a QSplat model or from a build without the `shadows` feature).
 pub fn render_view(
-    grid: &TriGrid<'_>,
+    model: &Model<'_>,
     view: View,
     cutoff_px: f32,
     shadows: Shadows,
     targets: &mut Targets<'_>,
     mut mark: impl FnMut(Phase),
-) -> Result<Drawn, FrameError> {
+) -> Result<Drawn, ViewError> {
     mark(Phase::Setup);
-    let cam = Camera::orbit(
-        Sphere::from_bounds(grid.header().bounds),
-        view,
-        DEFAULT_FOV_DEG,
-    );
-    let opts = RenderOptions {
-        cutoff_px,
-        kernel: Kernel::Square,
-        ..RenderOptions::default()
-    };
-    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, &cam, &opts)?;
+    let cam = Camera::orbit(Sphere::from_bounds(model.bounds()), view, DEFAULT_FOV_DEG);
     let light = camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1);
-    #[cfg(feature = "shadows")]
-    let light_frame = light_frame(grid.header(), shadows, light);
+    let frame = Frame::new(model, &cam, cutoff_px, shadows, light)?;
 
     mark(Phase::Table);
     let table_rebuilt =
         targets
             .table
-            .update(&[DEFAULT_MATERIAL], light, camera::scale(cam.forward, -1.0));
+            .update(&[model.material()], light, camera::scale(cam.forward, -1.0));
 
     mark(Phase::Clear);
     let mut fb = Framebuffer::new(targets.color, targets.depth);
@@ -349,20 +537,17 @@ pub fn render_view(
     let mut sink = ShadedRaster {
         fb: &mut fb,
         table: targets.table,
-        kernel: opts.kernel,
+        kernel: KERNEL,
     };
-    let stats = match shadows {
-        Shadows::Off => render_tg(grid, &frame, &mut sink),
+    let stats = match &frame {
+        Frame::TriGrid(grid, f) => render_tg(grid, f, &mut sink),
         #[cfg(feature = "shadows")]
-        mode => {
-            let light = light_frame
-                .as_ref()
-                .expect("a light frame when shadows are on");
+        Frame::TriGridShadowed(grid, f, light, mode) => {
             let mut map = ShadowMap::new(targets.shadow, SHADOW_MAP_SIZE);
-            render_tg_shadowed(grid, &frame, light, &mut map, mode.core_mode(), &mut sink)
+            render_tg_shadowed(grid, f, light, &mut map, *mode, &mut sink)
         }
-        #[cfg(not(feature = "shadows"))]
-        mode => panic!("shadows {} need the `shadows` feature", mode.name()),
+        #[cfg(feature = "qsplat")]
+        Frame::QSplat(file, f) => render_qs_colored(file, f, &mut sink),
     };
     mark(Phase::End);
     Ok(Drawn {
@@ -371,11 +556,74 @@ pub fn render_view(
     })
 }
 
-/// The light's tables when `shadows` is on (setup, like [`TgFrame::new`]).
-#[cfg(feature = "shadows")]
-fn light_frame(header: &Header, shadows: Shadows, light: camera::Vec3) -> Option<LightFrame> {
-    (shadows != Shadows::Off)
-        .then(|| LightFrame::new(header, &Placement::IDENTITY, light, SHADOW_MAP_SIZE))
+/// A frame set up for its model's traversal: the format's per-frame integer tables.
+// Unboxed: there is no heap; one lives on the stack for one frame, as the tables always did.
+#[allow(clippy::large_enum_variant)]
+enum Frame<'m, 'a> {
+    /// A tri-grid without shadows.
+    TriGrid(&'m TriGrid<'a>, TgFrame),
+    /// A tri-grid with shadows: the light's tables too.
+    #[cfg(feature = "shadows")]
+    TriGridShadowed(&'m TriGrid<'a>, TgFrame, LightFrame, ShadowMode),
+    /// A QSplat file.
+    #[cfg(feature = "qsplat")]
+    QSplat(&'m QSplat<'a>, QsFrame),
+}
+
+impl<'m, 'a> Frame<'m, 'a> {
+    /// Setup (floats allowed): the tables of `model` for `cam` at `cutoff_px`, and of the light
+    /// from `light` (a unit vector) when `shadows` is on.
+    fn new(
+        model: &'m Model<'a>,
+        cam: &Camera,
+        cutoff_px: f32,
+        shadows: Shadows,
+        light: camera::Vec3,
+    ) -> Result<Self, ViewError> {
+        match model {
+            Model::TriGrid(grid) => {
+                let opts = RenderOptions {
+                    cutoff_px,
+                    kernel: KERNEL,
+                    ..RenderOptions::default()
+                };
+                let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, cam, &opts)
+                    .map_err(ViewError::TriGrid)?;
+                match shadows {
+                    Shadows::Off => Ok(Frame::TriGrid(grid, frame)),
+                    #[cfg(feature = "shadows")]
+                    mode => {
+                        let light = LightFrame::new(
+                            grid.header(),
+                            &Placement::IDENTITY,
+                            light,
+                            SHADOW_MAP_SIZE,
+                        );
+                        Ok(Frame::TriGridShadowed(grid, frame, light, mode.core_mode()))
+                    }
+                    #[cfg(not(feature = "shadows"))]
+                    mode => {
+                        let _ = light;
+                        Err(ViewError::NoShadows(Format::TriGrid, mode))
+                    }
+                }
+            }
+            #[cfg(feature = "qsplat")]
+            Model::QSplat(file) => {
+                if shadows != Shadows::Off {
+                    return Err(ViewError::NoShadows(Format::QSplat, shadows));
+                }
+                let opts = QsRenderOptions {
+                    cutoff_px,
+                    kernel: KERNEL,
+                    backface_culling: true,
+                };
+                let frame = QsFrame::new(file, &Placement::IDENTITY, cam, &opts)
+                    .map_err(ViewError::QSplat)?;
+                Ok(Frame::QSplat(file, frame))
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -430,5 +678,28 @@ mod tests {
         for m in Shadows::ALL {
             assert_eq!(Shadows::from_name(m.name()), Some(m));
         }
+    }
+
+    #[test]
+    fn the_magic_tells_the_format_and_bad_files_are_errors() {
+        assert_eq!(Format::of(b"QSplat11\0\0"), Format::QSplat);
+        assert_eq!(Format::of(b"QSpla"), Format::TriGrid);
+        assert_eq!(Format::of(b""), Format::TriGrid);
+        for f in Format::ALL {
+            assert_eq!(Format::from_name(f.name()), Some(f));
+        }
+        let junk = [0u8; 64];
+        assert!(matches!(
+            Model::open(&junk, Verify::Full),
+            Err(ModelError::TriGrid(_))
+        ));
+        let mut qs = [0u8; 64];
+        qs[..8].copy_from_slice(b"QSplat11");
+        let err = Model::open(&qs, Verify::Full).unwrap_err();
+        #[cfg(feature = "qsplat")]
+        assert!(matches!(err, ModelError::QSplat(_)), "{err:?}");
+        #[cfg(not(feature = "qsplat"))]
+        assert_eq!(err, ModelError::QSplatNotBuilt);
+        assert!(!err.to_string().is_empty());
     }
 }

@@ -6,7 +6,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use pocketsplat_core::camera::{self, Placement};
-use pocketsplat_core::qs::{render_qs_colored, QSplat, QsFrame, QsRenderOptions, MAGIC};
+use pocketsplat_core::qs::{
+    render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions, MAGIC,
+};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::{Material, ShadingTable};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
@@ -43,14 +45,7 @@ pub fn read_qs(path: &Path) -> Result<Vec<u8>> {
 /// The material a file is shaded with: the settings' own, or, when its samples carry colours, the
 /// same material in white, which the colours then tint.
 pub fn qs_material(file: &QSplat<'_>, settings: &Settings) -> Material {
-    if file.counts().color_trees > 0 {
-        Material {
-            color: [1.0; 3],
-            ..settings.material
-        }
-    } else {
-        settings.material
-    }
+    shading_material(file, settings.material)
 }
 
 /// Renders one frame of a `.qs` file into `out` (cleared first).

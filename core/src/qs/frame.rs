@@ -15,6 +15,7 @@
 use super::read::{QSplat, Tree};
 use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
 use crate::raster::Kernel;
+use crate::shade::Material;
 
 /// A root sphere's radius in model integers.
 pub const ROOT_RADIUS: i32 = 1 << 28;
@@ -101,6 +102,21 @@ impl Scale {
     /// The constant this stands for.
     pub fn value(self) -> f64 {
         f64::from(self.m) / libm::pow(2.0, f64::from(self.sh))
+    }
+}
+
+/// The material `file` is shaded with: `base`, or, when its samples carry colours, `base` in white,
+/// which the colours then tint ([`super::ColorSink`] modulates the shaded colour by the sample's).
+/// One rule for every renderer of `.qs` files (the simulator, the firmware), so that their frames
+/// agree.
+pub fn shading_material(file: &QSplat<'_>, base: Material) -> Material {
+    if file.counts().color_trees > 0 {
+        Material {
+            color: [1.0; 3],
+            ..base
+        }
+    } else {
+        base
     }
 }
 

@@ -1,32 +1,37 @@
 //! `arm-bench`: the cost of a frame on ARM, in guest instructions counted exactly under QEMU.
 //!
 //! ```text
-//! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg] [--target TRIPLE]...
-//!     [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE]
+//! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg|FILE.qs]...
+//!     [--format tg|qsplat|both] [--target TRIPLE]... [--no-shadows] [--json]
+//!     [--profile VIEW:CUTOFF:MODE]
 //! ```
 //!
-//! Builds the firmware with the model linked into PSRAM (default: the bunny baked at paper level 5,
-//! tri-grid depth 6, into `target/arm/models/`), once without and once with the `shadows` feature,
-//! for each target (default: thumbv7m-none-eabi on mps2-an385, thumbv6m-none-eabi on the same
-//! machine, thumbv7em-none-eabihf on mps2-an386), boots each in QEMU with the instruction counter
-//! (`tests/qemu-plugin/icount.c`), checks every frame's CRC against the host's, and prints per frame:
-//! view, cutoff, shadows, splats, nodes, instructions (and by phase), instructions per visited node
-//! and per drawn splat, and frames per second at 200 MHz assuming one instruction per cycle. The
-//! unshadowed frames come from the build without shadows (what firmware for a scene without shadows
-//! runs); the shadowed ones from the shadows build. Then each build's flash, RAM, stack and PSRAM.
+//! Builds the firmware with each model linked into PSRAM (default: the bunny, baked into
+//! `target/arm/models/` in the formats `--format` names, both by default: a tri-grid at paper
+//! level 5, depth 6, and a QSplat file as `pocketsplat bake --format qsplat` bakes it; a `--model`
+//! is told by its magic), for each target (default: thumbv7m-none-eabi on mps2-an385,
+//! thumbv6m-none-eabi on the same machine, thumbv7em-none-eabihf on mps2-an386). A tri-grid is built
+//! once without and once with the `shadows` feature, a QSplat file once with `qsplat` (no shadows:
+//! they are tri-grid only). Each build boots in QEMU with the instruction counter
+//! (`tests/qemu-plugin/icount.c`), every frame's CRC is checked against the host's, and per model a
+//! table gives per frame: view, cutoff, shadows, splats, nodes, instructions (and by phase),
+//! instructions per visited node and per drawn splat, and frames per second at 200 MHz assuming one
+//! instruction per cycle. The unshadowed tri-grid frames come from the build without shadows (what
+//! firmware for a scene without shadows runs); the shadowed ones from the shadows build. Then each
+//! build's flash, RAM, stack and PSRAM, and, with both formats, the unshadowed frames side by side.
 //!
 //! `--json` prints one JSON object per frame instead. `--profile std:1:off` also profiles that
-//! frame's traversal by function (needs `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
+//! frame's traversal by function, for each model (needs `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 use anyhow::{bail, ensure, Context, Result};
-use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Phase, Shadows};
+use pocketsplat_core::tg::Verify;
+use pocketsplat_pda::{frame_specs_for, Format, FrameReport, FrameSpec, Model, Phase, Shadows};
 use pocketsplat_tests::arm::{
-    baked_bunny, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
+    baked_bunny_as, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
     FrameCost, HostFrames, BENCH_TARGETS,
 };
 use pocketsplat_tests::elf::Memory;
@@ -39,20 +44,21 @@ const TIMEOUT_S: u32 = 1800;
 const CLOCK_HZ: f64 = 200e6;
 
 struct Args {
-    model: Option<PathBuf>,
+    models: Vec<PathBuf>,
+    formats: Vec<Format>,
     targets: Vec<String>,
     shadows: bool,
     json: bool,
     profile: Option<FrameSpec>,
 }
 
-const USAGE: &str =
-    "usage: arm-bench [--model FILE.tg] [--target TRIPLE]... [--no-shadows] [--json] \
-                     [--profile VIEW:CUTOFF:MODE]";
+const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|qsplat|both] \
+                     [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE]";
 
 fn parse_args() -> Result<Args> {
     let mut args = Args {
-        model: None,
+        models: Vec::new(),
+        formats: Format::ALL.to_vec(),
         targets: Vec::new(),
         shadows: true,
         json: false,
@@ -65,7 +71,16 @@ fn parse_args() -> Result<Args> {
                 .with_context(|| format!("{a} needs a value\n{USAGE}"))
         };
         match a.as_str() {
-            "--model" => args.model = Some(value()?.into()),
+            "--model" => args.models.push(value()?.into()),
+            "--format" => {
+                let v = value()?;
+                args.formats = match v.as_str() {
+                    "both" => Format::ALL.to_vec(),
+                    name => vec![Format::from_name(name).with_context(|| {
+                        format!("--format {name}: want tg, qsplat or both\n{USAGE}")
+                    })?],
+                };
+            }
             "--target" => args.targets.push(value()?),
             "--no-shadows" => args.shadows = false,
             "--json" => args.json = true,
@@ -107,15 +122,15 @@ struct Row {
     memory: Memory,
 }
 
-/// A grid and the host's buffers, to render the frames the firmware must match.
-struct Host<'g> {
-    grid: &'g TriGrid<'g>,
+/// A model and the host's buffers, to render the frames the firmware must match.
+struct Host<'m> {
+    model: &'m Model<'m>,
     frames: HostFrames,
 }
 
 impl Host<'_> {
     fn render(&mut self, spec: FrameSpec) -> Result<FrameReport> {
-        self.frames.render(self.grid, spec)
+        self.frames.render(self.model, spec)
     }
 }
 
@@ -167,8 +182,8 @@ fn per(n: u64, d: u32) -> f64 {
     }
 }
 
-fn print_table(target: &str, rows: &[Row]) {
-    println!("\n{target}: instructions per frame (exact, QEMU TCG plugin); fps at 200 MHz, 1 instruction/cycle");
+fn print_table(target: &str, model: &str, rows: &[Row]) {
+    println!("\n{target}, {model}: instructions per frame (exact, QEMU TCG plugin); fps at 200 MHz, 1 instruction/cycle");
     println!(
         "{:<6} {:>6} {:<9} {:>9} {:>9} {:>12} {:>10} {:>10} {:>9} {:>12} {:>9} {:>10} {:>8}",
         "view",
@@ -352,91 +367,212 @@ fn strip_generics(s: &str) -> String {
     out
 }
 
+/// One model to bench: its file, bytes and name.
+struct Bench {
+    path: PathBuf,
+    bytes: Vec<u8>,
+    name: String,
+}
+
+/// The builds of one target and model: the frames, checked, and each build's memory.
+struct Benched {
+    rows: Vec<Row>,
+    builds: Vec<(String, Memory, u64)>,
+}
+
+/// Builds, runs and checks the firmware variants of `model` for `target`: for a tri-grid, without
+/// and (with `shadows`) with the `shadows` feature; for a QSplat file, with `qsplat`. Profiles the
+/// frame `args.profile` names, if any.
+fn bench_model(
+    target: &str,
+    file: &Bench,
+    model: &Model<'_>,
+    args: &Args,
+    counter: &Counter,
+) -> Result<Benched> {
+    let mut host = Host {
+        model,
+        frames: HostFrames::new(),
+    };
+    let firmware = |features| Firmware {
+        target,
+        features,
+        model: Some(&file.path),
+    };
+    const OFF: &[Shadows] = &[Shadows::Off];
+    // (firmware, the modes it renders)
+    let variants: Vec<(Firmware<'_>, &'static [Shadows])> = match model.format() {
+        Format::TriGrid if args.shadows => vec![
+            (firmware(&[]), OFF),
+            (firmware(&["shadows"]), &Shadows::ALL),
+        ],
+        Format::TriGrid => vec![(firmware(&[]), OFF)],
+        Format::QSplat => vec![(firmware(&["qsplat"]), OFF)],
+    };
+    let mut rows: Vec<Row> = Vec::new();
+    let mut builds = Vec::new();
+    for (fw, modes) in &variants {
+        let (variant_rows, m, stack) = bench(fw, modes, counter, &mut host)?;
+        // The unshadowed frames of a model come from its first build, the one without shadows.
+        let new: Vec<Row> = variant_rows
+            .into_iter()
+            .filter(|r| !rows.iter().any(|have| have.report.spec == r.report.spec))
+            .collect();
+        rows.extend(new);
+        builds.push((fw.name(), m, stack));
+    }
+    // View by view, then mode, then cutoff: the firmware's order.
+    let order = |r: &Row| {
+        frame_specs_for(&Shadows::ALL)
+            .position(|s| s == r.report.spec)
+            .unwrap_or(usize::MAX)
+    };
+    rows.sort_by_key(order);
+    if let Some(spec) = args.profile {
+        match variants
+            .iter()
+            .find(|(_, modes)| modes.contains(&spec.shadows))
+        {
+            Some((fw, modes)) => profile(fw, modes, spec, counter)?,
+            None => eprintln!(
+                "{}: no build renders shadows {}; not profiled",
+                file.name,
+                spec.shadows.name()
+            ),
+        }
+    }
+    Ok(Benched { rows, builds })
+}
+
+/// The unshadowed frames of a tri-grid and a QSplat model side by side, with the QSplat frame's
+/// instructions as a multiple of the tri-grid's.
+fn print_side_by_side(target: &str, tg: (&str, &[Row]), qs: (&str, &[Row])) {
+    println!(
+        "\n{target}: tri-grid {} against QSplat {}, shadows off, instructions per frame",
+        tg.0, qs.0
+    );
+    println!(
+        "{:<6} {:>6} {:>9} {:>12} {:>9} {:>12} {:>7}",
+        "view", "cutoff", "tg splats", "tg instr", "qs splats", "qs instr", "qs/tg"
+    );
+    for q in
+        qs.1.iter()
+            .filter(|r| r.report.spec.shadows == Shadows::Off)
+    {
+        let spec = q.report.spec;
+        let Some(t) = tg.1.iter().find(|r| r.report.spec == spec) else {
+            continue;
+        };
+        println!(
+            "{:<6} {:>4}px {:>9} {:>12} {:>9} {:>12} {:>7.2}",
+            spec.view_name(),
+            spec.cutoff_px,
+            t.report.stats.splats,
+            t.cost.frame(),
+            q.report.stats.splats,
+            q.cost.frame(),
+            q.cost.frame() as f64 / t.cost.frame() as f64
+        );
+    }
+}
+
 fn run() -> Result<()> {
     let args = parse_args()?;
     ensure!(
         have_qemu(),
         "qemu-system-arm is needed (apt-get install qemu-system-arm)"
     );
-    let model = match &args.model {
-        Some(m) => m.canonicalize().with_context(|| m.display().to_string())?,
-        None => baked_bunny()?.context("the bunny scan is missing (set POCKETSPLAT_MODELS)")?,
+    let paths: Vec<PathBuf> = if args.models.is_empty() {
+        args.formats
+            .iter()
+            .map(|&f| {
+                baked_bunny_as(f)?.context("the bunny scan is missing (set POCKETSPLAT_MODELS)")
+            })
+            .collect::<Result<_>>()?
+    } else {
+        args.models
+            .iter()
+            .map(|m| m.canonicalize().with_context(|| m.display().to_string()))
+            .collect::<Result<_>>()?
     };
-    let bytes = std::fs::read(&model).with_context(|| model.display().to_string())?;
-    let grid = TriGrid::open(&bytes, Verify::Full)
-        .with_context(|| format!("{}: not a valid tri-grid", model.display()))?;
-    let h = grid.header();
-    let name = model_name(&model);
+    let benches: Vec<Bench> = paths
+        .into_iter()
+        .map(|path| {
+            let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
+            let name = model_name(&path);
+            Ok(Bench { path, bytes, name })
+        })
+        .collect::<Result<_>>()?;
+    let models: Vec<Model<'_>> = benches
+        .iter()
+        .map(|b| {
+            Model::open(&b.bytes, Verify::Full)
+                .with_context(|| format!("{}: not a valid model", b.path.display()))
+        })
+        .collect::<Result<_>>()?;
     if !args.json {
-        println!(
-            "model {name}: {} bytes, rho {} depth {}, {} samples",
-            bytes.len(),
-            h.rho,
-            h.depth,
-            grid.total_samples()
-        );
+        for (b, model) in benches.iter().zip(&models) {
+            println!(
+                "model {}: {} bytes, {}",
+                b.name,
+                b.bytes.len(),
+                describe(model)
+            );
+        }
     }
     let counter = Counter::build()?;
-    let mut host = Host {
-        grid: &grid,
-        frames: HostFrames::new(),
-    };
     for target in &args.targets {
-        let plain = Firmware {
-            target,
-            features: &[],
-            model: Some(&model),
-        };
-        let shadowed = Firmware {
-            target,
-            features: &["shadows"],
-            model: Some(&model),
-        };
-        let (mut rows, m, stack) = bench(&plain, &[Shadows::Off], &counter, &mut host)?;
-        let mut builds = vec![(plain.name(), m, stack)];
-        if args.shadows {
-            let (shadow_rows, m, stack) = bench(&shadowed, &Shadows::ALL, &counter, &mut host)?;
-            rows.extend(
-                shadow_rows
-                    .into_iter()
-                    .filter(|r| r.report.spec.shadows != Shadows::Off),
-            );
-            builds.push((shadowed.name(), m, stack));
-        }
-        // View by view, then mode, then cutoff: the firmware's order.
-        let order = |r: &Row| {
-            frame_specs_for(&Shadows::ALL)
-                .position(|s| s == r.report.spec)
-                .unwrap_or(usize::MAX)
-        };
-        rows.sort_by_key(order);
-        if args.json {
-            for r in &rows {
-                println!("{}", json_row(&name, target, r));
-            }
-        } else {
-            print_table(target, &rows);
-            println!("all {} frames: CRC identical to the host's", rows.len());
-            println!(
-                "{:<44} {:>9} {:>9} {:>7} {:>9}",
-                "build", "flash", "RAM", "stack", "PSRAM"
-            );
-            for (b, m, stack) in &builds {
-                println!(
-                    "{b:<44} {:>9} {:>9} {stack:>7} {:>9}",
-                    m.flash, m.ram, m.psram
-                );
-            }
-        }
-        if let Some(spec) = args.profile {
-            if spec.shadows == Shadows::Off {
-                profile(&plain, &[Shadows::Off], spec, &counter)?;
+        let mut done: Vec<(&Bench, Format, Vec<Row>)> = Vec::new();
+        for (b, model) in benches.iter().zip(&models) {
+            let Benched { rows, builds } = bench_model(target, b, model, &args, &counter)?;
+            if args.json {
+                for r in &rows {
+                    println!("{}", json_row(&b.name, target, r));
+                }
             } else {
-                profile(&shadowed, &Shadows::ALL, spec, &counter)?;
+                print_table(target, &b.name, &rows);
+                println!("all {} frames: CRC identical to the host's", rows.len());
+                println!(
+                    "{:<44} {:>9} {:>9} {:>7} {:>9}",
+                    "build", "flash", "RAM", "stack", "PSRAM"
+                );
+                for (name, m, stack) in &builds {
+                    println!(
+                        "{name:<44} {:>9} {:>9} {stack:>7} {:>9}",
+                        m.flash, m.ram, m.psram
+                    );
+                }
             }
+            done.push((b, model.format(), rows));
+        }
+        let of = |f: Format| done.iter().find(|(_, format, _)| *format == f);
+        if let (false, Some(tg), Some(qs)) = (args.json, of(Format::TriGrid), of(Format::QSplat)) {
+            print_side_by_side(target, (&tg.0.name, &tg.2), (&qs.0.name, &qs.2));
         }
     }
     Ok(())
+}
+
+/// What the model is, for the header line.
+fn describe(model: &Model<'_>) -> String {
+    match model {
+        Model::TriGrid(grid) => {
+            let h = grid.header();
+            format!(
+                "tri-grid rho {} depth {}, {} samples",
+                h.rho,
+                h.depth,
+                grid.total_samples()
+            )
+        }
+        Model::QSplat(file) => {
+            let c = file.counts();
+            format!(
+                "QSplat, {} trees, depth {}, {} leaves, {} interior nodes",
+                c.trees, c.max_depth, c.leaves, c.interior
+            )
+        }
+    }
 }
 
 fn model_name(path: &Path) -> String {

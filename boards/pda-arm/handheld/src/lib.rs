@@ -35,7 +35,7 @@ use pocketsplat_core::lod::FrameRateController;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{render_view, Shadows, Targets};
+use pocketsplat_pda::{render_view, Model, Shadows, Targets};
 
 /// Name of the model file in the SD card's root directory (8.3).
 pub const MODEL_FILE: &str = "MODEL.TG";
@@ -313,6 +313,8 @@ where
         grid.total_samples()
     );
 
+    let model = Model::from(grid);
+
     let mut orbit = Orbit::default();
     let mut lod = FrameRateController::new(TARGET_FRAME_US, FIRST_CUTOFF_PX);
     let mut cutoff = Some(lod.cutoff());
@@ -334,7 +336,7 @@ where
         };
         let t0 = clock.now_us();
         let drawn = match render_view(
-            &grid,
+            &model,
             orbit.view,
             cutoff_px,
             Shadows::Off,
