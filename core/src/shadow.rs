@@ -281,6 +281,41 @@ impl LightFrame {
     /// `light_dir` (unit vector towards the light, world space), with a `map_size²` shadow map over
     /// the root cube's extent across the light.
     pub fn new(header: &Header, placement: &Placement, light_dir: Vec3, map_size: usize) -> Self {
+        let mut frame = Self::UNSET;
+        frame.set(header, placement, light_dir, map_size);
+        frame
+    }
+
+    /// No light: a placeholder to [`LightFrame::set`] later, all zeros (a `static` of it takes no
+    /// flash). Its frames would shadow every sample.
+    pub const UNSET: LightFrame = LightFrame {
+        root: [0; 3],
+        disp: [[[0; 3]; MAX_SLOTS]; MAX_LEVELS],
+        ext: [[0; 3]; MAX_LEVELS],
+        bias: [0; MAX_LEVELS],
+        to_light_q14: [0; 3],
+        tan_q8: [0; 65],
+        reach: [0; MAX_LEVELS],
+        texel_q16: 0,
+        stop_level: 0,
+        order: SlotOrder::NONE,
+        point: false,
+        point_depth: PointDepth {
+            depth_w0: 0,
+            depth_scale: 0,
+        },
+        derived: Derived::EMPTY,
+    };
+
+    /// [`LightFrame::new`] in place: firmware keeps the frame in a `static` and sets it per frame,
+    /// so that its 17 KB of tables are never built on the stack and copied out.
+    pub fn set(
+        &mut self,
+        header: &Header,
+        placement: &Placement,
+        light_dir: Vec3,
+        map_size: usize,
+    ) {
         let travel = placement.to_model_dir(camera::normalize(camera::scale(light_dir, -1.0)));
         let (axis_u, axis_v) = across(travel);
         let axes = [axis_u, axis_v, travel];
@@ -306,8 +341,9 @@ impl LightFrame {
         let root =
             core::array::from_fn(|k| to_i((camera::dot(axes[k], centre) - lo[k]) * scales[k]));
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
-        let mut ext = [[0i32; 3]; MAX_LEVELS];
+        let (disp, ext) = (&mut self.disp, &mut self.ext);
+        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *ext = [[0i32; 3]; MAX_LEVELS];
         let mut stop_level = usize::from(header.depth);
         let mut cell = side;
         for level in 0..=usize::from(header.depth) {
@@ -329,26 +365,20 @@ impl LightFrame {
                 stop_level = level;
             }
         }
-        let bias = depth_bias(&ext, header.depth, stop_level);
+        let bias = depth_bias(ext, header.depth, stop_level);
         // Depth (Q8) per texel of lateral distance, times the reach in texels.
-        let reach = directional_reach(&ext, header.depth, extent / map_size as f64 * s_d);
-        let mut frame = LightFrame {
-            root,
-            disp,
-            ext,
-            bias,
-            to_light_q14: travel.map(|t| to_i(-t * 16384.0)),
-            tan_q8: tan_table(),
-            reach,
-            texel_q16: 0,
-            stop_level,
-            order: SlotOrder::new(light_order(rho, travel)),
-            point: false,
-            point_depth: PointDepth::default(),
-            derived: Derived::EMPTY,
-        };
-        frame.derive();
-        frame
+        let reach = directional_reach(ext, header.depth, extent / map_size as f64 * s_d);
+        self.root = root;
+        self.bias = bias;
+        self.to_light_q14 = travel.map(|t| to_i(-t * 16384.0));
+        self.tan_q8 = tan_table();
+        self.reach = reach;
+        self.texel_q16 = 0;
+        self.stop_level = stop_level;
+        self.order = SlotOrder::new(light_order(rho, travel));
+        self.point = false;
+        self.point_depth = PointDepth::default();
+        self.derive();
     }
 
     /// Sets up a point light at `light_pos` (world space) for the grid described by `header`, placed

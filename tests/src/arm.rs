@@ -16,6 +16,7 @@ use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::qs::write::QsBakeOptions;
 use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_pda::{
     render_standard_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase, Targets, HEIGHT,
     SHADOW_MAP_SIZE, WIDTH,
@@ -58,6 +59,7 @@ pub struct HostFrames {
     depth: Box<[[u16; WIDTH]; HEIGHT]>,
     table: Box<ShadingTable<1>>,
     shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
+    light: Box<LightFrame>,
 }
 
 impl Default for HostFrames {
@@ -83,6 +85,7 @@ impl HostFrames {
                 .into_boxed_slice()
                 .try_into()
                 .expect("a square map"),
+            light: Box::new(LightFrame::UNSET),
         }
     }
 
@@ -96,6 +99,7 @@ impl HostFrames {
             depth: &mut self.depth,
             table: &mut self.table,
             shadow: &mut self.shadow,
+            light: &mut self.light,
         };
         Ok(render_standard_view(model, spec, &mut targets, |_| {})?)
     }

@@ -31,6 +31,8 @@ mod firmware {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hio, hprintln};
     use pocketsplat_core::shade::ShadingTable;
+    #[cfg(feature = "shadows")]
+    use pocketsplat_core::shadow::LightFrame;
     #[cfg(feature = "model")]
     use pocketsplat_pda::Targets;
     #[cfg(feature = "shadows")]
@@ -51,6 +53,8 @@ mod firmware {
         #[cfg(feature = "shadows")]
         static mut SHADOW: [u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE] =
             [0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE];
+        #[cfg(feature = "shadows")]
+        static mut LIGHT: LightFrame = LightFrame::UNSET;
 
         selftest();
         memory::paint_stack();
@@ -63,11 +67,13 @@ mod firmware {
             table: TABLE,
             #[cfg(feature = "shadows")]
             shadow: SHADOW,
+            #[cfg(feature = "shadows")]
+            light: LIGHT,
         });
         #[cfg(not(feature = "model"))]
         {
             #[cfg(feature = "shadows")]
-            let _ = &SHADOW;
+            let _ = (&SHADOW, &LIGHT);
             let _ = (&DEPTH, &TABLE);
             render_pattern(COLOR);
         }
@@ -356,14 +362,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = Model::open(&bytes, Verify::Structure)?;
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]
-    let mut shadow =
-        Box::new([0u16; pocketsplat_pda::SHADOW_MAP_SIZE * pocketsplat_pda::SHADOW_MAP_SIZE]);
+    let (mut shadow, mut light) = (
+        Box::new([0u16; pocketsplat_pda::SHADOW_MAP_SIZE * pocketsplat_pda::SHADOW_MAP_SIZE]),
+        Box::new(pocketsplat_core::shadow::LightFrame::UNSET),
+    );
     let mut targets = Targets {
         color: &mut color,
         depth: &mut depth,
         table: &mut table,
         #[cfg(feature = "shadows")]
         shadow: &mut shadow,
+        #[cfg(feature = "shadows")]
+        light: &mut light,
     };
     for spec in model.frame_specs() {
         println!(

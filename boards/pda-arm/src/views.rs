@@ -174,7 +174,19 @@ pub struct Targets<'a> {
     /// Shadow-map depths, [`SHADOW_MAP_SIZE`]² of them.
     #[cfg(feature = "shadows")]
     pub shadow: &'a mut [u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE],
+    /// Where a shadowed frame keeps the light's tables (17 KB, most of it the per-normal and
+    /// per-level look-ups of the shadow test), set in place ([`LightFrame::set`]): beside the map
+    /// rather than on the stack, which would otherwise hold them more than once on their way into
+    /// the frame. [`LightFrame::UNSET`] to start with.
+    #[cfg(feature = "shadows")]
+    pub light: &'a mut LightFrame,
 }
+
+/// Where [`Frame::new`] puts the light's tables: [`Targets::light`], or nothing without shadows.
+#[cfg(feature = "shadows")]
+type LightSlot<'s> = &'s mut LightFrame;
+#[cfg(not(feature = "shadows"))]
+type LightSlot<'s> = core::marker::PhantomData<&'s ()>;
 
 /// What one frame did: the line the firmware prints, `frame <view> cutoff <px> shadows <mode> crc
 /// 0x… splats N nodes N` (for two-pass shadows, `nodes` counts both passes).
@@ -521,7 +533,11 @@ pub fn render_view(
     mark(Phase::Setup);
     let cam = Camera::orbit(Sphere::from_bounds(model.bounds()), view, DEFAULT_FOV_DEG);
     let light = camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1);
-    let frame = Frame::new(model, &cam, cutoff_px, shadows, light)?;
+    #[cfg(feature = "shadows")]
+    let slot = &mut *targets.light;
+    #[cfg(not(feature = "shadows"))]
+    let slot = core::marker::PhantomData;
+    let frame = Frame::new(model, &cam, cutoff_px, shadows, light, slot)?;
 
     mark(Phase::Table);
     let table_rebuilt =
@@ -564,7 +580,7 @@ enum Frame<'m, 'a> {
     TriGrid(&'m TriGrid<'a>, TgFrame),
     /// A tri-grid with shadows: the light's tables too.
     #[cfg(feature = "shadows")]
-    TriGridShadowed(&'m TriGrid<'a>, TgFrame, LightFrame, ShadowMode),
+    TriGridShadowed(&'m TriGrid<'a>, TgFrame, &'m LightFrame, ShadowMode),
     /// A QSplat file.
     #[cfg(feature = "qsplat")]
     QSplat(&'m QSplat<'a>, QsFrame),
@@ -572,13 +588,14 @@ enum Frame<'m, 'a> {
 
 impl<'m, 'a> Frame<'m, 'a> {
     /// Setup (floats allowed): the tables of `model` for `cam` at `cutoff_px`, and of the light
-    /// from `light` (a unit vector) when `shadows` is on.
+    /// from `light` (a unit vector) into `slot` when `shadows` is on.
     fn new(
         model: &'m Model<'a>,
         cam: &Camera,
         cutoff_px: f32,
         shadows: Shadows,
         light: camera::Vec3,
+        slot: LightSlot<'m>,
     ) -> Result<Self, ViewError> {
         match model {
             Model::TriGrid(grid) => {
@@ -593,17 +610,12 @@ impl<'m, 'a> Frame<'m, 'a> {
                     Shadows::Off => Ok(Frame::TriGrid(grid, frame)),
                     #[cfg(feature = "shadows")]
                     mode => {
-                        let light = LightFrame::new(
-                            grid.header(),
-                            &Placement::IDENTITY,
-                            light,
-                            SHADOW_MAP_SIZE,
-                        );
-                        Ok(Frame::TriGridShadowed(grid, frame, light, mode.core_mode()))
+                        slot.set(grid.header(), &Placement::IDENTITY, light, SHADOW_MAP_SIZE);
+                        Ok(Frame::TriGridShadowed(grid, frame, slot, mode.core_mode()))
                     }
                     #[cfg(not(feature = "shadows"))]
                     mode => {
-                        let _ = light;
+                        let _ = (light, slot);
                         Err(ViewError::NoShadows(Format::TriGrid, mode))
                     }
                 }

@@ -198,6 +198,12 @@ impl SlotOrder {
         SlotOrder { slots, positions }
     }
 
+    /// No slot at all: a placeholder (all zeros) for a light not set up yet.
+    pub const NONE: SlotOrder = SlotOrder {
+        slots: [0; MAX_SLOTS],
+        positions: [[0; 128]; 4],
+    };
+
     /// The slots, in order.
     pub fn slots(&self) -> &[u8; MAX_SLOTS] {
         &self.slots
