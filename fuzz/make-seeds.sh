@@ -6,6 +6,10 @@
 #                      the bunny (res4) itself
 #   corpus/tg_render   empty: its input is structured (see fuzz_targets/tg_render.rs), and the empty
 #                      input already means "the first baked file, unchanged"
+#   corpus/pack_open   one byte per base pack (0, 1, 2: shadows off, one-pass, two-pass), which
+#                      picks that pack unchanged; the fuzzer grows edits after it
+#   corpus/tg_stream   empty: structured like tg_render (the empty input streams the first baked
+#                      file through a medium that never fails)
 # Usage: fuzz/make-seeds.sh   (from anywhere; needs python3 and the models in ../shared/models or
 # $POCKETSPLAT_MODELS)
 set -euo pipefail
@@ -16,7 +20,9 @@ export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
 cargo build -q --manifest-path "$root/Cargo.toml" -p pocketsplat-sim --no-default-features --bin pocketsplat
 bin="$CARGO_TARGET_DIR/debug/pocketsplat"
 
-mkdir -p "$here/corpus/tg_open" "$here/corpus/ply_import" "$here/corpus/tg_render"
+mkdir -p "$here/corpus/tg_open" "$here/corpus/ply_import" "$here/corpus/tg_render" \
+  "$here/corpus/pack_open" "$here/corpus/tg_stream"
+for i in 0 1 2; do printf "\\x0$i" > "$here/corpus/pack_open/base-$i"; done
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 

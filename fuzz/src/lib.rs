@@ -285,3 +285,224 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
         });
     }
 }
+
+/// Valid scene packs to mutate: two trefoil objects (ρ 3 and ρ 3 with materials and colours), one
+/// placed beside the other, with a view, a camera path and each shadow mode.
+pub fn pack_base_files() -> &'static [Vec<u8>] {
+    use pocketsplat_core::camera::Sphere;
+    use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
+    use pocketsplat_core::scene::{PackShadows, Savings};
+    use pocketsplat_core::shade::DEFAULT_MATERIAL;
+    static FILES: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+    FILES.get_or_init(|| {
+        let tg = base_files();
+        let object = |name: &str, data: &[u8], x: f64, slots: Vec<u8>| PackObject {
+            name: name.into(),
+            data: data.to_vec(),
+            placement: Placement {
+                translation: [x, 0.0, 0.0],
+                ..Placement::IDENTITY
+            },
+            slots,
+            casts_shadows: true,
+            ground: false,
+            in_bounds: true,
+            depth_asked: 3,
+            depth_kept: 3,
+            savings: Savings::default(),
+        };
+        [PackShadows::Off, PackShadows::OnePass, PackShadows::TwoPass]
+            .into_iter()
+            .map(|shadows| {
+                let contents = PackContents {
+                    objects: vec![
+                        object("plain", &tg[0], -1.2, vec![0]),
+                        object("dressed", &tg[1], 1.2, (0..8).map(|s| s % 3).collect()),
+                    ],
+                    materials: (0..3)
+                        .map(|i| (format!("m{i}"), DEFAULT_MATERIAL))
+                        .collect(),
+                    views: vec![("std".into(), View::new(30.0, 20.0, 2.5))],
+                    path: vec![
+                        (0.0, View::new(0.0, 10.0, 3.0)),
+                        (2.0, View::new(90.0, 30.0, 2.0)),
+                    ],
+                    light_az_el: (-40.0, 60.0),
+                    shadows,
+                    shadow_map_size: 64,
+                    fov_deg: 45.0,
+                    min_cell_px: 0.0,
+                    sphere: Sphere {
+                        center: [0.0; 3],
+                        radius: 2.5,
+                    },
+                    align_log2: 9,
+                };
+                write_pack(&contents).expect("the base pack writes")
+            })
+            .collect()
+    })
+}
+
+/// Opens `bytes` as a scene pack and each object's file (`Verify::Full` and `Structure`), and
+/// renders what opens from its first view and its path's middle, without shadows and with the
+/// pack's, checking the traversal's bounds per object.
+pub fn pack_open_and_render(bytes: &[u8]) {
+    use pocketsplat_core::scene::{render_scene, Pack, PackShadows, Scene, SceneOptions};
+    let Ok(pack) = Pack::open(bytes) else {
+        return;
+    };
+    for verify in [Verify::Full, Verify::Structure] {
+        let Ok(scene) = Scene::open(pack, verify) else {
+            continue;
+        };
+        let total: u64 = (0..scene.len())
+            .filter_map(|i| scene.grid(i))
+            .map(|g| g.total_samples())
+            .sum();
+        let views = pack
+            .view(0)
+            .map(|(_, v)| v)
+            .into_iter()
+            .chain(pack.path_view(pack.path_duration() / 2.0));
+        for view in views {
+            let camera = scene.camera(view);
+            let of = SceneOptions::of(&pack);
+            for shadows in [PackShadows::Off, of.shadows] {
+                let opts = SceneOptions {
+                    shadows,
+                    shadow_map_size: of.shadow_map_size.min(256),
+                    ..of
+                };
+                let mut map = vec![0u16; opts.shadow_map_size * opts.shadow_map_size];
+                let Ok(stats) =
+                    render_scene(&scene, &camera, &opts, &mut map, &mut NullSink::default())
+                else {
+                    continue;
+                };
+                let passes = if stats.shadows == PackShadows::TwoPass {
+                    2
+                } else {
+                    1
+                };
+                // `total` counts the light pass's nodes too.
+                let visited = u64::from(stats.total.nodes_visited);
+                assert!(visited <= passes * total, "{stats:?} > {passes} x {total}");
+                assert!(u64::from(stats.shadow_fill_nodes) <= total, "{stats:?}");
+                assert!(stats.total.splats <= stats.total.nodes_visited);
+            }
+        }
+    }
+}
+
+/// A `.tg` file read through a medium that fails, corrupts or truncates reads as the input says:
+/// the streaming traversal must treat every such block as absent.
+pub struct FlakySource<'a> {
+    /// The file.
+    pub bytes: &'a [u8],
+    /// One byte per read, cycled: low 2 bits 0 = good read, 1 = error, 2 = one byte flipped,
+    /// 3 = the read comes back short (an error); the rest picks the byte.
+    pub script: &'a [u8],
+    /// Reads so far.
+    pub reads: usize,
+}
+
+impl pocketsplat_core::stream::ChunkSource for FlakySource<'_> {
+    type Error = ();
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), ()> {
+        let op = if self.script.is_empty() {
+            0
+        } else {
+            self.script[self.reads % self.script.len()]
+        };
+        self.reads += 1;
+        let start = usize::try_from(offset).map_err(|_| ())?;
+        let end = start.checked_add(buf.len()).ok_or(())?;
+        let src = self.bytes.get(start..end).ok_or(())?;
+        match op & 3 {
+            1 | 3 => Err(()),
+            2 => {
+                buf.copy_from_slice(src);
+                if !buf.is_empty() {
+                    let at = usize::from(op >> 2) * 7 % buf.len();
+                    buf[at] ^= 1 << (op >> 5);
+                }
+                Ok(())
+            }
+            _ => {
+                buf.copy_from_slice(src);
+                Ok(())
+            }
+        }
+    }
+}
+
+/// Streams `bytes` through `script`'s flaky medium for up to `frames` frames with `budget` bytes of
+/// reads per frame and a `cache_bytes` cache. Checks the traversal's bounds each frame and, when the
+/// file opens resident with `Verify::Full` and the stream converged, that the last frame is the
+/// resident one.
+pub fn stream_checked(
+    bytes: &[u8],
+    script: &[u8],
+    look: &Look,
+    frames: u32,
+    budget: u32,
+    cache_bytes: usize,
+) {
+    use pocketsplat_sim::render::FrameBuffers;
+    use pocketsplat_sim::stream::run::{camera_for, stream_frame};
+    use pocketsplat_sim::stream::OwnedStream;
+    let mut settings = look.settings();
+    settings.shadows = ShadowMode::Off;
+    let mut src = FlakySource {
+        bytes,
+        script,
+        reads: 0,
+    };
+    let Ok(mut mem) = OwnedStream::new(&mut src, cache_bytes) else {
+        return;
+    };
+    let Ok(mut stream) = mem.open(&mut src) else {
+        return;
+    };
+    let h = *stream.header();
+    // At most one visit per sample the stored file's directory counts (the medium may lie, the
+    // bound may not), or one per two bytes when the stored header does not parse.
+    let total = match pocketsplat_core::tg::read::parse_header(bytes) {
+        Ok((_, dirs)) => dirs.iter().map(|d| u64::from(d.count)).sum(),
+        Err(_) => bytes.len() as u64 / 2,
+    };
+    let cam = camera_for(&stream, &settings);
+    RASTER.with_borrow_mut(|(fb, table)| {
+        let mut last = None;
+        for _ in 0..frames {
+            let Ok(stats) = stream_frame(&mut stream, &cam, &settings, table, fb) else {
+                return;
+            };
+            assert!(
+                u64::from(stats.nodes_visited) <= total,
+                "{stats:?} > {total}"
+            );
+            assert!(stats.max_level <= h.depth);
+            last = Some(stats);
+            if stream.converged() {
+                break;
+            }
+            stream.serve(&mut src, budget);
+        }
+        let (Some(_), true) = (last, stream.converged()) else {
+            return;
+        };
+        let Ok(grid) = TriGrid::open(bytes, Verify::Full) else {
+            return;
+        };
+        let streamed = fb.color.clone();
+        let mut resident = FrameBuffers::new();
+        if render_tg_with(&grid, &settings, table, &mut resident, |_, _| {}).is_ok() {
+            assert!(
+                streamed == resident.color,
+                "converged stream differs from the resident frame"
+            );
+        }
+    });
+}
