@@ -1,0 +1,123 @@
+//! `firmware-sizes`: what each feature set of the firmware costs in flash, RAM and stack, the table
+//! of "leave out what a scene does not need" in the README.
+//!
+//! ```text
+//! cargo run --release -p pocketsplat-tests --bin firmware-sizes
+//! ```
+//!
+//! Builds `pocketsplat-pda` for thumbv7m-none-eabi (mps2-an385) once per feature set, with the
+//! bunny linked into PSRAM where the set draws a model (a depth-6 tri-grid, or the QSplat file
+//! `pocketsplat bake --format qsplat` makes, as `arm-bench` bakes them), boots each in QEMU
+//! (no instruction counter) so that it renders its frames and reports its memory, checks the
+//! report against the ELF's sections, and prints a markdown table: flash (code, read-only data and
+//! `.data`'s initial values), RAM (statics), the stack's high-water mark, and PSRAM (the model).
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{ensure, Context, Result};
+use pocketsplat_pda::Format;
+use pocketsplat_tests::arm::{baked_bunny_as, check_memory, have_qemu, Firmware, TARGET};
+
+/// Seconds a run may take (the shadows build renders 48 frames of 2 M samples).
+const TIMEOUT_S: u32 = 900;
+
+/// One row: what the firmware includes.
+struct Set {
+    /// Cargo features of pocketsplat-pda besides `model`.
+    features: &'static [&'static str],
+    /// The model it draws, if any.
+    model: Option<Format>,
+    /// What a scene needing this set has.
+    what: &'static str,
+}
+
+const SETS: [Set; 5] = [
+    Set {
+        features: &[],
+        model: None,
+        what: "no model (test pattern): runtime, raster, CRC",
+    },
+    Set {
+        features: &[],
+        model: Some(Format::TriGrid),
+        what: "a tri-grid, no shadows",
+    },
+    Set {
+        features: &["shadows"],
+        model: Some(Format::TriGrid),
+        what: "a tri-grid with one-pass and two-pass shadows (256² map)",
+    },
+    Set {
+        features: &["qsplat"],
+        model: Some(Format::QSplat),
+        what: "a QSplat file (tri-grid code linked too)",
+    },
+    Set {
+        features: &["qsplat", "shadows"],
+        model: Some(Format::TriGrid),
+        what: "both formats and shadows, drawing a tri-grid",
+    },
+];
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("firmware-sizes: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
+    ensure!(have_qemu(), "qemu-system-arm is not installed");
+    println!("| features | draws | flash | RAM | stack | PSRAM |");
+    println!("|---|---|---|---|---|---|");
+    for set in &SETS {
+        let model = match set.model {
+            Some(format) => Some(
+                baked_bunny_as(format)?
+                    .context("the bunny is not in ../shared/models (or $POCKETSPLAT_MODELS)")?,
+            ),
+            None => None,
+        };
+        let fw = Firmware {
+            target: TARGET,
+            features: set.features,
+            model: model.as_deref(),
+        };
+        let elf = fw.build()?;
+        let run = fw.run_for(&elf, None, TIMEOUT_S)?;
+        ensure!(run.output.status.success(), "{}", run.transcript());
+        let (m, stack) = check_memory(&run, &elf)?;
+        let features = match (set.model.is_some(), set.features) {
+            (false, []) => "(none)".to_owned(),
+            (true, f) => ["model"]
+                .iter()
+                .chain(f)
+                .copied()
+                .collect::<Vec<_>>()
+                .join(", "),
+            (false, f) => f.join(", "),
+        };
+        println!(
+            "| `{features}` | {} | {} | {} | {} | {} |",
+            set.what,
+            kb(m.flash),
+            kb(m.ram),
+            kb(stack),
+            model.as_deref().map_or("–".to_owned(), |p: &Path| format!(
+                "{} ({})",
+                kb(m.psram),
+                p.file_name().unwrap_or_default().to_string_lossy()
+            )),
+        );
+    }
+    Ok(())
+}
+
+/// Bytes as KB with one decimal (1 KB = 1024 B).
+fn kb(bytes: u64) -> String {
+    format!("{:.1} KB", bytes as f64 / 1024.0)
+}
