@@ -6,18 +6,11 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use pocketsplat_fuzz::{pack_base_files, pack_open_and_render};
+use pocketsplat_fuzz::{edited, pack_base_files, pack_open_and_render};
 
 fuzz_target!(|data: &[u8]| {
     pack_open_and_render(data);
-    let Some((&pick, edits)) = data.split_first() else {
-        return;
-    };
-    let files = pack_base_files();
-    let mut bytes = files[usize::from(pick) % files.len()].clone();
-    for e in edits.chunks_exact(5).take(32) {
-        let at = u32::from_le_bytes([e[0], e[1], e[2], e[3]]) as usize % bytes.len();
-        bytes[at] ^= e[4];
+    if let Some(bytes) = edited(pack_base_files(), data) {
+        pack_open_and_render(&bytes);
     }
-    pack_open_and_render(&bytes);
 });

@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use pocketsplat_core::camera::standard_view;
-use pocketsplat_fuzz::{qs_base_files, qs_open_and_render, Look};
+use pocketsplat_fuzz::{edited, qs_base_files, qs_open_and_render, Look};
 
 fuzz_target!(|data: &[u8]| {
     let looks = [
@@ -14,14 +14,7 @@ fuzz_target!(|data: &[u8]| {
         Look::new(standard_view("close").unwrap(), 0.5, 0),
     ];
     qs_open_and_render(data, &looks);
-    let Some((&pick, edits)) = data.split_first() else {
-        return;
-    };
-    let files = qs_base_files();
-    let mut bytes = files[usize::from(pick) % files.len()].clone();
-    for e in edits.chunks_exact(5).take(32) {
-        let at = u32::from_le_bytes([e[0], e[1], e[2], e[3]]) as usize % bytes.len();
-        bytes[at] ^= e[4];
+    if let Some(bytes) = edited(qs_base_files(), data) {
+        qs_open_and_render(&bytes, &looks);
     }
-    qs_open_and_render(&bytes, &looks);
 });

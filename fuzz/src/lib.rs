@@ -219,6 +219,18 @@ pub fn seal_header(bytes: &mut [u8]) {
     bytes[bs - 4..bs].copy_from_slice(&c.to_le_bytes());
 }
 
+/// One of `files` changed as `data` says: its first byte picks the file, then 5-byte edits
+/// (offset u32 LE, xor), at most 32. `None` for an empty input.
+pub fn edited(files: &[Vec<u8>], data: &[u8]) -> Option<Vec<u8>> {
+    let (&pick, edits) = data.split_first()?;
+    let mut bytes = files[usize::from(pick) % files.len()].clone();
+    for e in edits.chunks_exact(5).take(32) {
+        let at = u32::from_le_bytes([e[0], e[1], e[2], e[3]]) as usize % bytes.len();
+        bytes[at] ^= e[4];
+    }
+    Some(bytes)
+}
+
 /// Valid `.qs` files to mutate: the trefoil with and without colours.
 pub fn qs_base_files() -> &'static [Vec<u8>] {
     use pocketsplat_core::qs::write::{bake_qs, QsBakeOptions};
