@@ -11,7 +11,7 @@
 //! is kept there for reruns and the `.tg` is removed afterwards.
 //!
 //! Measured on 2026-12-01 (2 cores, 24 GB, shared with a CI run and QEMU builds, so the job got
-//! 50 % of one core's worth on average): 50 M triangles, 25 M vertices, a 954 MB PLY written in
+//! 50 % of one core's worth on average): 50 M triangles, 25 M vertices, a 950 MB PLY written in
 //! 11.5 s; `pocketsplat bake` loaded it in 18.0 s and baked depth 6 in 74.1 s (1.67 M samples,
 //! 4.2 MB `.tg`), 1 min 32 s wall, peak RSS 2.24 GB.
 
