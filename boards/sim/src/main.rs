@@ -88,6 +88,21 @@ enum Command {
         /// Print one JSON object with the frame's statistics on stdout.
         #[arg(long)]
         stats_json: bool,
+        /// Read the `.tg` file (a path, or an `http://` URL served with byte ranges) in blocks
+        /// through a block cache, as a handheld reads an SD card, drawing frames until one misses
+        /// nothing; write that frame. Without shadows.
+        #[arg(long)]
+        stream: bool,
+        /// With `--stream`: bytes read per frame at most (K and M suffixes: 1024, 1024²).
+        #[arg(long, default_value = "64K", requires = "stream")]
+        io_budget: String,
+        /// With `--stream`: bytes of block cache.
+        #[arg(long, default_value = "16M", requires = "stream")]
+        cache: String,
+        /// With `--stream`: give up (an error, no output) after this many frames, e.g. when the
+        /// view needs more blocks at once than the cache holds.
+        #[arg(long, default_value_t = 1000, requires = "stream")]
+        max_frames: u32,
     },
     /// Show a point file in a window: orbit, pan and zoom with the mouse and keys, refined to
     /// 1 px whenever nothing moves. Needs a display; without one, use `render`.
@@ -290,6 +305,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             light_pos,
             shadows,
             stats_json,
+            stream,
+            io_budget,
+            cache,
+            max_frames,
         }) => {
             check_fov_cutoff(fov, cutoff)?;
             let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
@@ -316,6 +335,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .transpose()?,
                 ..settings
             };
+            if stream {
+                let opts = pocketsplat_sim::stream::StreamOptions {
+                    io_budget: u32::try_from(pocketsplat_sim::stream::run::parse_bytes(
+                        "--io-budget",
+                        &io_budget,
+                    )?)
+                    .map_err(|_| anyhow::anyhow!("--io-budget {io_budget}: at most 4 GB"))?,
+                    cache_bytes: pocketsplat_sim::stream::run::parse_bytes("--cache", &cache)?,
+                    max_frames,
+                };
+                let input = input.to_string_lossy();
+                return pocketsplat_sim::stream::cmd::run(
+                    &input, &out, &settings, &opts, stats_json,
+                );
+            }
             cmd::render::run(&input, &out, &settings, stats_json)
         }
         Some(Command::View {

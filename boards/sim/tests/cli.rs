@@ -269,3 +269,95 @@ fn qsplat_bake_info_render_and_bad_qs_files() {
     }
     assert_eq!(files_in(dir.path()), before, "no output is left");
 }
+
+#[test]
+fn render_stream_gives_the_resident_frame_or_a_clear_error_and_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oct.ply"), octahedron_ply(None)).unwrap();
+    let out = pocketsplat(
+        &[
+            "bake",
+            "oct.ply",
+            "-o",
+            "oct.tg",
+            "--depth",
+            "5",
+            "--block-size",
+            "1024",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let view = ["--view", "30,20,1.5", "--cutoff", "1"];
+    let plain = pocketsplat(
+        &[&["render", "oct.tg", "-o", "plain.png"], &view[..]].concat(),
+        dir.path(),
+    );
+    assert!(
+        plain.status.success(),
+        "{}",
+        String::from_utf8_lossy(&plain.stderr)
+    );
+    let streamed = pocketsplat(
+        &[
+            &[
+                "render",
+                "oct.tg",
+                "-o",
+                "streamed.png",
+                "--stream",
+                "--io-budget",
+                "4K",
+                "--stats-json",
+            ],
+            &view[..],
+        ]
+        .concat(),
+        dir.path(),
+    );
+    assert!(
+        streamed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&streamed.stderr)
+    );
+    let stats: serde_json::Value = serde_json::from_slice(&streamed.stdout).unwrap();
+    assert!(
+        stats["frames"].as_u64().unwrap() > 1,
+        "{stats}: a 4 KB budget takes several frames"
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("plain.png")).unwrap(),
+        std::fs::read(dir.path().join("streamed.png")).unwrap(),
+        "the converged stream is the resident frame"
+    );
+    // A cache too small for the view never converges: an error naming the file, nothing written.
+    let small = pocketsplat(
+        &[
+            &[
+                "render",
+                "oct.tg",
+                "-o",
+                "small.png",
+                "--stream",
+                "--cache",
+                "4K",
+                "--max-frames",
+                "50",
+            ],
+            &view[..],
+        ]
+        .concat(),
+        dir.path(),
+    );
+    assert!(!small.status.success());
+    let err = String::from_utf8_lossy(&small.stderr);
+    assert!(
+        err.contains("oct.tg") && err.contains("did not converge"),
+        "{err}"
+    );
+    assert!(!dir.path().join("small.png").exists());
+}
