@@ -3,6 +3,9 @@
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
 //!   every other crate of the workspace never see it (STYLE.md 2).
+//! - With the `stream` feature, for the ARM firmware, `POCKETSPLAT_PDA_IMAGE` names the FAT disk image the firmware opens
+//!   on the host through semihosting at run time; its absolute path (the image need not exist yet,
+//!   and its bytes are not part of the build) is handed on as `POCKETSPLAT_PDA_IMAGE_FILE`.
 //! - With the `model` feature, `POCKETSPLAT_PDA_MODEL` names a baked `.tg` or `.qs` file; its absolute
 //!   path is handed to the firmware as `POCKETSPLAT_PDA_MODEL_FILE`, which `include_bytes!` links into
 //!   `.psram`. The firmware tells the format by the magic at run time; a `.qs` file without the
@@ -28,6 +31,11 @@ fn main() {
     // mps2 firmware binary links with it.
     if env::var_os("CARGO_FEATURE_MPS2").is_none() {
         return;
+    }
+    // Only the firmware binary opens the image: the host build of the lib (the tests' twin of the
+    // sequence) takes its source as an argument.
+    if env::var_os("CARGO_FEATURE_STREAM").is_some() {
+        image();
     }
     let root = manifest_dir().join("../..");
     let root = root.canonicalize().unwrap_or(root);
@@ -83,4 +91,28 @@ fn is_qsplat(path: &std::path::Path) -> bool {
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut magic))
         .is_ok_and(|()| &magic == b"QSplat")
+}
+
+/// Resolves `POCKETSPLAT_PDA_IMAGE` (relative paths from the workspace root) into the absolute path
+/// the firmware asks the semihosting host to open.
+fn image() {
+    const VAR: &str = "POCKETSPLAT_PDA_IMAGE";
+    println!("cargo:rerun-if-env-changed={VAR}");
+    let Some(path) = env::var_os(VAR) else {
+        panic!(
+            "the `stream` feature needs {VAR}=<FAT disk image holding BUNNY.TG> \
+             (tests/tests/qemu_stream.rs makes one with mkfs.fat and mcopy)"
+        );
+    };
+    let path = PathBuf::from(path);
+    let path = if path.is_absolute() {
+        path
+    } else {
+        manifest_dir().join("../..").join(path)
+    };
+    let text = path
+        .to_str()
+        .unwrap_or_else(|| panic!("{VAR}={}: not UTF-8", path.display()));
+    assert!(!text.contains('\0'), "{VAR}: a path cannot hold NUL");
+    println!("cargo:rustc-env=POCKETSPLAT_PDA_IMAGE_FILE={text}");
 }
