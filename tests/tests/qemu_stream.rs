@@ -16,7 +16,7 @@
 use std::path::Path;
 
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
-use pocketsplat_core::stream::{BlockEntry, SlotEntry};
+use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry};
 use pocketsplat_core::tg::Verify;
 use pocketsplat_pda::stream::{
     orbit_view, stream_frames, Leg, StreamFrame, StreamMemory, StreamTotals, CACHE_BYTES,
@@ -41,8 +41,8 @@ fn boxed<T: Clone, const N: usize>(value: T) -> Box<[T; N]> {
 }
 
 /// The firmware's sequence on the host: the same library call over the same image, through
-/// embedded-sdmmc on a host file.
-fn host_sequence(image: &Path) -> (Vec<StreamFrame>, StreamTotals) {
+/// embedded-sdmmc on a host file (and, when `flaky`, the same torture source as `selftest-flaky`).
+fn host_sequence(image: &Path, flaky: bool) -> (Vec<StreamFrame>, StreamTotals) {
     let device = FileBlockDevice::open(image).unwrap();
     let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
         embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
@@ -54,6 +54,14 @@ fn host_sequence(image: &Path) -> (Vec<StreamFrame>, StreamTotals) {
         .open_file_in_dir(root, MODEL_FILE, embedded_sdmmc::Mode::ReadOnly)
         .unwrap();
     let mut sd = SdFile::new(&volumes, file);
+    if flaky {
+        sequence(&mut pocketsplat_pda::stream::flaky(sd))
+    } else {
+        sequence(&mut sd)
+    }
+}
+
+fn sequence<C: ChunkSource>(src: &mut C) -> (Vec<StreamFrame>, StreamTotals) {
     let (mut data, mut slots, mut blocks) = (
         boxed::<u8, CACHE_BYTES>(0),
         boxed::<SlotEntry, CACHE_SLOTS>(SlotEntry::EMPTY),
@@ -66,14 +74,8 @@ fn host_sequence(image: &Path) -> (Vec<StreamFrame>, StreamTotals) {
     };
     let mut frames = HostFrames::new();
     let mut lines = Vec::new();
-    let totals = stream_frames(
-        &mut sd,
-        mem,
-        &mut frames.targets(),
-        |_| {},
-        |f| lines.push(*f),
-    )
-    .unwrap();
+    let totals = stream_frames(src, mem, &mut frames.targets(), |_| {}, |f| lines.push(*f))
+        .unwrap_or_else(|e| panic!("host sequence: {e}"));
     (lines, totals)
 }
 
@@ -97,25 +99,53 @@ fn parse_totals(line: &str) -> Option<StreamTotals> {
 
 #[test]
 fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
-    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
-        return;
-    }
-    let Some(model) = baked_bunny().unwrap() else {
+    let Some(totals) = stream_under_qemu(false) else {
         return;
     };
+    assert_eq!(totals.read_errors + totals.crc_errors, 0, "a clean medium");
+}
+
+/// `selftest-flaky`: a tenth of the reads fail and a tenth arrive damaged. Each bad block stays
+/// absent (the frame is drawn coarser, the block read again after a backoff), nothing panics, and
+/// the converged frames are still the resident file's.
+#[test]
+fn bad_reads_leave_blocks_absent_and_the_stream_still_converges_under_qemu() {
+    let Some(totals) = stream_under_qemu(true) else {
+        return;
+    };
+    assert!(
+        totals.read_errors > 0 && totals.crc_errors > 0,
+        "the torture source failed and damaged reads: {totals:?}"
+    );
+}
+
+/// Builds the image and the firmware (with `selftest-flaky` when `flaky`), runs it, checks its lines
+/// against the host's and its converged frames against the resident render, prints the figures and
+/// returns the totals; `None` when a tool or the scan is missing off CI.
+fn stream_under_qemu(flaky: bool) -> Option<StreamTotals> {
+    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return None;
+    }
+    let model = baked_bunny().unwrap()?;
     let bytes = std::fs::read(&model).unwrap();
     assert!(
         bytes.len() > 8 * CACHE_BYTES,
         "the model must be far larger than the cache"
     );
-    // A fixed path: the firmware is built with it, and rebuilding for each run would be waste.
-    let dir = target_dir().join("models/sd-bunny");
+    // A fixed path per variant: the firmware is built with it, and rebuilding for each run would be
+    // waste (the two tests run in parallel, so each has its own).
+    let dir = target_dir().join(if flaky {
+        "models/sd-bunny-flaky"
+    } else {
+        "models/sd-bunny"
+    });
     std::fs::create_dir_all(&dir).unwrap();
     let image = make_image(&dir, &bytes, MODEL_FILE);
+    let features: &[&str] = if flaky { &["selftest-flaky"] } else { &[] };
 
     let fw = Firmware {
         target: TARGET,
-        features: &[],
+        features,
         model: None,
         image: Some(&image),
     };
@@ -135,7 +165,7 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
         .unwrap_or_else(|| panic!("no `stream total` line:\n{}", run.transcript()));
 
     // The same sequence on the host: same frames, same reads, same misses.
-    let (host, host_totals) = host_sequence(&image);
+    let (host, host_totals) = host_sequence(&image, flaky);
     for (i, (a, h)) in arm.iter().zip(&host).enumerate() {
         assert_eq!(a, h, "streamed frame {i} differs between ARM and host");
     }
@@ -162,7 +192,6 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
         let last = arm.iter().rfind(|f| f.leg == leg).expect("the leg ran");
         assert!(last.converged(), "leg {} ends converged", leg.name());
     }
-    assert_eq!(arm_totals.read_errors + arm_totals.crc_errors, 0);
 
     let (memory, stack) = check_memory(&run, &elf).unwrap();
     let frames_of = |leg: Leg| arm.iter().filter(|f| f.leg == leg).count();
@@ -172,8 +201,9 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
         .map(|f| format!("{}{}", f.read, if f.converged() { "" } else { "*" }))
         .collect();
     eprintln!(
-        "QEMU stream, cutoff {STREAM_CUTOFF_PX} px, cache {} blocks of {} KB ({CACHE_BYTES} B), \
+        "QEMU stream{}, cutoff {STREAM_CUTOFF_PX} px, cache {} blocks of {} KB ({CACHE_BYTES} B), \
          image {} KB through embedded-sdmmc over semihosting",
+        if flaky { " (selftest-flaky)" } else { "" },
         arm_totals.cache_blocks,
         CACHE_BYTES as u32 / arm_totals.cache_blocks.max(1) / 1024,
         std::fs::metadata(&image).unwrap().len() / 1024
@@ -188,8 +218,14 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
         orbit.join(" ")
     );
     eprintln!(
-        "  total {} bytes read of a {}-byte file in {} frames ({} evictions); {checked} converged frames checked against the resident render",
-        arm_totals.bytes, arm_totals.file_bytes, arm_totals.frames, arm_totals.evictions
+        "  total {} bytes read of a {}-byte file in {} frames ({} evictions, {} failed reads, {} damaged blocks); \
+         {checked} converged frames checked against the resident render",
+        arm_totals.bytes,
+        arm_totals.file_bytes,
+        arm_totals.frames,
+        arm_totals.evictions,
+        arm_totals.read_errors,
+        arm_totals.crc_errors
     );
     eprintln!(
         "  {}: flash {} B, RAM {} B + stack {stack} B; {} sectors read through embedded-sdmmc",
@@ -198,4 +234,5 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
         memory.ram,
         run.field("sectors_read").unwrap_or_default()
     );
+    Some(arm_totals)
 }

@@ -315,12 +315,17 @@ mod firmware {
                 Ok(f) => f,
                 Err(e) => super::fail(format_args!("{MODEL_FILE}: {e:?}")),
             };
-            let mut sd = SdFile::new(&volumes, file);
+            let sd = SdFile::new(&volumes, file);
             match sd.len() {
                 Ok(n) => hprintln!("model file {} bytes {}", MODEL_FILE, n),
                 Err(e) => super::fail(format_args!("{MODEL_FILE}: {e:?}")),
             }
-            match stream_frames(&mut sd, mem, &mut targets, super::marks::hit, |f| {
+            // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably).
+            #[cfg(feature = "selftest-flaky")]
+            let mut src = pocketsplat_pda::stream::flaky(sd);
+            #[cfg(not(feature = "selftest-flaky"))]
+            let mut src = sd;
+            match stream_frames(&mut src, mem, &mut targets, super::marks::hit, |f| {
                 hprintln!("{}", f)
             }) {
                 Ok(totals) => hprintln!("{}", totals),

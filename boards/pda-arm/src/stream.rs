@@ -19,6 +19,7 @@
 use core::fmt;
 
 use pocketsplat_core::camera::{View, STANDARD_VIEWS};
+use pocketsplat_core::stream::torture::Flaky;
 use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
 
 use crate::{render_stream_view, Drawn, Phase, Targets, ViewError};
@@ -40,6 +41,13 @@ pub const ORBIT_STEPS: u32 = 24;
 pub const ORBIT_STEP_DEG: u32 = 15;
 /// Frames a leg that waits for convergence may take before the sequence gives up on it.
 pub const MAX_CONVERGE_FRAMES: u32 = 64;
+
+/// `src` through core's torture source with this build's fixed seed: 10 % of reads fail, 10 % arrive
+/// with one bit flipped. The `selftest-flaky` firmware and its host twin stream through it, so that
+/// both see the same failures.
+pub fn flaky<S: ChunkSource>(src: S) -> Flaky<S> {
+    Flaky::new(src, 0x5EED_F1A4, 10, 10)
+}
 
 /// The caller's memory for a [`TgStream`] (statics on the device).
 pub struct StreamMemory<'a> {
