@@ -54,19 +54,11 @@ fn manifest_dir() -> PathBuf {
 /// commands run) and passes it on; a missing variable or file is an error that says what to do.
 fn model() {
     const VAR: &str = "POCKETSPLAT_PDA_MODEL";
-    println!("cargo:rerun-if-env-changed={VAR}");
-    let Some(path) = env::var_os(VAR) else {
-        panic!(
-            "the `model` feature needs {VAR}=<baked .tg or .qs file> \
-             (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)"
-        );
-    };
-    let path = PathBuf::from(path);
-    let path = if path.is_absolute() {
-        path
-    } else {
-        manifest_dir().join("../..").join(path)
-    };
+    let path = path_from_env(
+        VAR,
+        "the `model` feature needs it to name a baked .tg or .qs file \
+         (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)",
+    );
     let path = path
         .canonicalize()
         .unwrap_or_else(|e| panic!("{VAR}={}: {e}", path.display()));
@@ -97,22 +89,29 @@ fn is_qsplat(path: &std::path::Path) -> bool {
 /// the firmware asks the semihosting host to open.
 fn image() {
     const VAR: &str = "POCKETSPLAT_PDA_IMAGE";
-    println!("cargo:rerun-if-env-changed={VAR}");
-    let Some(path) = env::var_os(VAR) else {
-        panic!(
-            "the `stream` feature needs {VAR}=<FAT disk image holding BUNNY.TG> \
-             (tests/tests/qemu_stream.rs makes one with mkfs.fat and mcopy)"
-        );
-    };
-    let path = PathBuf::from(path);
-    let path = if path.is_absolute() {
-        path
-    } else {
-        manifest_dir().join("../..").join(path)
-    };
+    let path = path_from_env(
+        VAR,
+        "the `stream` firmware needs it to name a FAT disk image holding BUNNY.TG \
+         (tests/tests/qemu_stream.rs makes one with mkfs.fat and mcopy)",
+    );
     let text = path
         .to_str()
         .unwrap_or_else(|| panic!("{VAR}={}: not UTF-8", path.display()));
     assert!(!text.contains('\0'), "{VAR}: a path cannot hold NUL");
     println!("cargo:rustc-env=POCKETSPLAT_PDA_IMAGE_FILE={text}");
+}
+
+/// The path in the environment variable `var` (watched for changes), relative paths taken from the
+/// workspace root, where the README's commands run; a missing variable panics with `missing`.
+fn path_from_env(var: &str, missing: &str) -> PathBuf {
+    println!("cargo:rerun-if-env-changed={var}");
+    let Some(path) = env::var_os(var) else {
+        panic!("{var} is not set: {missing}");
+    };
+    let path = PathBuf::from(path);
+    if path.is_absolute() {
+        path
+    } else {
+        manifest_dir().join("../..").join(path)
+    }
 }

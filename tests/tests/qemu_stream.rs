@@ -16,11 +16,11 @@
 use std::path::Path;
 
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
-use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry};
+use pocketsplat_core::stream::ChunkSource;
 use pocketsplat_core::tg::Verify;
 use pocketsplat_pda::stream::{
-    orbit_view, stream_frames, Leg, StreamFrame, StreamMemory, StreamTotals, CACHE_BYTES,
-    CACHE_SLOTS, MAX_FILE_BLOCKS, STREAM_CUTOFF_PX,
+    orbit_view, stream_frames, Leg, StreamFrame, StreamTables, StreamTotals, CACHE_BYTES,
+    STREAM_CUTOFF_PX,
 };
 use pocketsplat_pda::Model;
 use pocketsplat_sim::stream::FileBlockDevice;
@@ -31,14 +31,6 @@ use pocketsplat_tests::fat::{have, make_image};
 
 /// The model's name on the volume (the firmware opens it by this name).
 const MODEL_FILE: &str = "BUNNY.TG";
-
-/// A fixed-size array on the heap.
-fn boxed<T: Clone, const N: usize>(value: T) -> Box<[T; N]> {
-    vec![value; N]
-        .into_boxed_slice()
-        .try_into()
-        .unwrap_or_else(|_| unreachable!("N elements"))
-}
 
 /// The firmware's sequence on the host: the same library call over the same image, through
 /// embedded-sdmmc on a host file (and, when `flaky`, the same torture source as `selftest-flaky`).
@@ -62,16 +54,9 @@ fn host_sequence(image: &Path, flaky: bool) -> (Vec<StreamFrame>, StreamTotals) 
 }
 
 fn sequence<C: ChunkSource>(src: &mut C) -> (Vec<StreamFrame>, StreamTotals) {
-    let (mut data, mut slots, mut blocks) = (
-        boxed::<u8, CACHE_BYTES>(0),
-        boxed::<SlotEntry, CACHE_SLOTS>(SlotEntry::EMPTY),
-        boxed::<BlockEntry, MAX_FILE_BLOCKS>(BlockEntry::EMPTY),
-    );
-    let mem = StreamMemory {
-        data: &mut data,
-        slots: &mut slots,
-        blocks: &mut blocks,
-    };
+    let mut tables = Box::new(StreamTables::EMPTY);
+    let mut data = Box::new([0u8; CACHE_BYTES]);
+    let mem = tables.with_cache(&mut data);
     let mut frames = HostFrames::new();
     let mut lines = Vec::new();
     let totals = stream_frames(src, mem, &mut frames.targets(), |_| {}, |f| lines.push(*f))

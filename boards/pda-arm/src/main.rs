@@ -62,20 +62,15 @@ mod firmware {
         static mut CACHE: [u8; pocketsplat_pda::stream::CACHE_BYTES] =
             [0; pocketsplat_pda::stream::CACHE_BYTES];
         #[cfg(feature = "stream")]
-        static mut SLOTS: [pocketsplat_core::stream::SlotEntry;
-            pocketsplat_pda::stream::CACHE_SLOTS] =
-            [pocketsplat_core::stream::SlotEntry::EMPTY; pocketsplat_pda::stream::CACHE_SLOTS];
-        #[cfg(feature = "stream")]
-        static mut BLOCKS: [pocketsplat_core::stream::BlockEntry;
-            pocketsplat_pda::stream::MAX_FILE_BLOCKS] =
-            [pocketsplat_core::stream::BlockEntry::EMPTY; pocketsplat_pda::stream::MAX_FILE_BLOCKS];
+        static mut STREAM: pocketsplat_pda::stream::StreamTables =
+            pocketsplat_pda::stream::StreamTables::EMPTY;
 
         selftest();
         memory::paint_stack();
         let psram_bytes = memory::check_psram();
 
-        #[cfg(feature = "model")]
-        render_model(Targets {
+        #[cfg(any(feature = "model", feature = "stream"))]
+        let targets = Targets {
             color: COLOR,
             depth: DEPTH,
             table: TABLE,
@@ -83,24 +78,11 @@ mod firmware {
             shadow: SHADOW,
             #[cfg(feature = "shadows")]
             light: LIGHT,
-        });
+        };
+        #[cfg(feature = "model")]
+        render_model(targets);
         #[cfg(feature = "stream")]
-        stream::render(
-            Targets {
-                color: COLOR,
-                depth: DEPTH,
-                table: TABLE,
-                #[cfg(feature = "shadows")]
-                shadow: SHADOW,
-                #[cfg(feature = "shadows")]
-                light: LIGHT,
-            },
-            pocketsplat_pda::stream::StreamMemory {
-                data: CACHE,
-                slots: SLOTS,
-                blocks: BLOCKS,
-            },
-        );
+        stream::render(targets, STREAM.with_cache(CACHE));
         #[cfg(not(any(feature = "model", feature = "stream")))]
         {
             #[cfg(feature = "shadows")]

@@ -49,6 +49,34 @@ pub fn flaky<S: ChunkSource>(src: S) -> Flaky<S> {
     Flaky::new(src, 0x5EED_F1A4, 10, 10)
 }
 
+/// The tables a [`TgStream`] of this sequence needs beside its cache blocks, in one piece (one
+/// `static mut` for cortex-m-rt's entry to hand over; a box on the host). Apart from the blocks
+/// because their empty entries are not zero: as a static they sit in `.data`, whose image flash
+/// holds, while the 64 KB of blocks stay in `.bss`.
+pub struct StreamTables {
+    /// Cache slots.
+    pub slots: [SlotEntry; CACHE_SLOTS],
+    /// One entry per block of the file.
+    pub blocks: [BlockEntry; MAX_FILE_BLOCKS],
+}
+
+impl StreamTables {
+    /// Empty tables.
+    pub const EMPTY: Self = Self {
+        slots: [SlotEntry::EMPTY; CACHE_SLOTS],
+        blocks: [BlockEntry::EMPTY; MAX_FILE_BLOCKS],
+    };
+
+    /// These tables and the cache blocks `data`, as [`stream_frames`] takes them.
+    pub fn with_cache<'a>(&'a mut self, data: &'a mut [u8; CACHE_BYTES]) -> StreamMemory<'a> {
+        StreamMemory {
+            data,
+            slots: &mut self.slots,
+            blocks: &mut self.blocks,
+        }
+    }
+}
+
 /// The caller's memory for a [`TgStream`] (statics on the device).
 pub struct StreamMemory<'a> {
     /// Cache blocks, [`CACHE_BYTES`].
