@@ -3,6 +3,9 @@
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
 //!   every other crate of the workspace never see it (STYLE.md 2).
+//! - With the `stream` feature, for the ARM firmware, `POCKETSPLAT_PDA_IMAGE` names the FAT disk image the firmware opens
+//!   on the host through semihosting at run time; its absolute path (the image need not exist yet,
+//!   and its bytes are not part of the build) is handed on as `POCKETSPLAT_PDA_IMAGE_FILE`.
 //! - With the `model` feature, `POCKETSPLAT_PDA_MODEL` names a baked `.tg` or `.qs` file; its absolute
 //!   path is handed to the firmware as `POCKETSPLAT_PDA_MODEL_FILE`, which `include_bytes!` links into
 //!   `.psram`. The firmware tells the format by the magic at run time; a `.qs` file without the
@@ -29,6 +32,11 @@ fn main() {
     if env::var_os("CARGO_FEATURE_MPS2").is_none() {
         return;
     }
+    // Only the firmware binary opens the image: the host build of the lib (the tests' twin of the
+    // sequence) takes its source as an argument.
+    if env::var_os("CARGO_FEATURE_STREAM").is_some() {
+        image();
+    }
     let root = manifest_dir().join("../..");
     let root = root.canonicalize().unwrap_or(root);
     // As a link argument of the binary, not `rustc-link-search`: search paths propagate to the link
@@ -46,19 +54,11 @@ fn manifest_dir() -> PathBuf {
 /// commands run) and passes it on; a missing variable or file is an error that says what to do.
 fn model() {
     const VAR: &str = "POCKETSPLAT_PDA_MODEL";
-    println!("cargo:rerun-if-env-changed={VAR}");
-    let Some(path) = env::var_os(VAR) else {
-        panic!(
-            "the `model` feature needs {VAR}=<baked .tg or .qs file> \
-             (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)"
-        );
-    };
-    let path = PathBuf::from(path);
-    let path = if path.is_absolute() {
-        path
-    } else {
-        manifest_dir().join("../..").join(path)
-    };
+    let path = path_from_env(
+        VAR,
+        "the `model` feature needs it to name a baked .tg or .qs file \
+         (e.g. `pocketsplat bake ../shared/models/bun_zipper.ply.gz -o bunny.tg`)",
+    );
     let path = path
         .canonicalize()
         .unwrap_or_else(|e| panic!("{VAR}={}: {e}", path.display()));
@@ -83,4 +83,35 @@ fn is_qsplat(path: &std::path::Path) -> bool {
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut magic))
         .is_ok_and(|()| &magic == b"QSplat")
+}
+
+/// Resolves `POCKETSPLAT_PDA_IMAGE` (relative paths from the workspace root) into the absolute path
+/// the firmware asks the semihosting host to open.
+fn image() {
+    const VAR: &str = "POCKETSPLAT_PDA_IMAGE";
+    let path = path_from_env(
+        VAR,
+        "the `stream` firmware needs it to name a FAT disk image holding BUNNY.TG \
+         (tests/tests/qemu_stream.rs makes one with mkfs.fat and mcopy)",
+    );
+    let text = path
+        .to_str()
+        .unwrap_or_else(|| panic!("{VAR}={}: not UTF-8", path.display()));
+    assert!(!text.contains('\0'), "{VAR}: a path cannot hold NUL");
+    println!("cargo:rustc-env=POCKETSPLAT_PDA_IMAGE_FILE={text}");
+}
+
+/// The path in the environment variable `var` (watched for changes), relative paths taken from the
+/// workspace root, where the README's commands run; a missing variable panics with `missing`.
+fn path_from_env(var: &str, missing: &str) -> PathBuf {
+    println!("cargo:rerun-if-env-changed={var}");
+    let Some(path) = env::var_os(var) else {
+        panic!("{var} is not set: {missing}");
+    };
+    let path = PathBuf::from(path);
+    if path.is_absolute() {
+        path
+    } else {
+        manifest_dir().join("../..").join(path)
+    }
 }

@@ -14,12 +14,15 @@ use std::sync::Mutex;
 
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
+use pocketsplat_core::camera::View;
 use pocketsplat_core::qs::write::QsBakeOptions;
+use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::LightFrame;
+use pocketsplat_core::splat::Stats;
 use pocketsplat_pda::{
-    render_standard_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase, Targets, HEIGHT,
-    SHADOW_MAP_SIZE, WIDTH,
+    render_standard_view, render_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase,
+    Shadows, Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
 };
 
 use crate::elf::{Elf, Memory};
@@ -89,19 +92,41 @@ impl HostFrames {
         }
     }
 
-    /// Renders frame `spec` of `model` (either format) as the firmware does.
-    ///
-    /// # Errors
-    /// When the frame cannot be set up (e.g. shadows of a QSplat model).
-    pub fn render(&mut self, model: &Model<'_>, spec: FrameSpec) -> Result<FrameReport> {
-        let mut targets = Targets {
+    /// The buffers, as the firmware's library calls take them.
+    pub fn targets(&mut self) -> Targets<'_> {
+        Targets {
             color: &mut self.color,
             depth: &mut self.depth,
             table: &mut self.table,
             shadow: &mut self.shadow,
             light: &mut self.light,
-        };
+        }
+    }
+
+    /// Renders frame `spec` of `model` (either format) as the firmware does.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up (e.g. shadows of a QSplat model).
+    pub fn render(&mut self, model: &Model<'_>, spec: FrameSpec) -> Result<FrameReport> {
+        let mut targets = self.targets();
         Ok(render_standard_view(model, spec, &mut targets, |_| {})?)
+    }
+
+    /// Renders `model` seen from `view` at `cutoff_px`, without shadows, as the firmware's
+    /// [`render_view`] does; returns the frame's CRC and counts.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up.
+    pub fn render_view(
+        &mut self,
+        model: &Model<'_>,
+        view: View,
+        cutoff_px: f32,
+    ) -> Result<(u32, Stats)> {
+        let mut targets = self.targets();
+        let drawn = render_view(model, view, cutoff_px, Shadows::Off, &mut targets, |_| {})?;
+        let crc = Framebuffer::new(&mut self.color, &mut self.depth).crc();
+        Ok((crc, drawn.stats))
     }
 }
 
@@ -123,6 +148,9 @@ pub struct Firmware<'a> {
     pub features: &'a [&'a str],
     /// Baked `.tg` or `.qs` file for `POCKETSPLAT_PDA_MODEL` (a `.qs` needs the `qsplat` feature).
     pub model: Option<&'a Path>,
+    /// FAT disk image for `POCKETSPLAT_PDA_IMAGE`, which the `stream` feature opens at run time
+    /// (the `stream` feature is added when there is one).
+    pub image: Option<&'a Path>,
 }
 
 impl Firmware<'_> {
@@ -132,6 +160,7 @@ impl Firmware<'_> {
             target: TARGET,
             features,
             model: None,
+            image: None,
         }
     }
 
@@ -140,6 +169,9 @@ impl Firmware<'_> {
         let mut features: Vec<&str> = self.features.to_vec();
         if self.model.is_some() {
             features.insert(0, "model");
+        }
+        if self.image.is_some() && !features.contains(&"stream") {
+            features.insert(0, "stream");
         }
         if features.is_empty() {
             features.push("default");
@@ -184,6 +216,14 @@ impl Firmware<'_> {
             cmd.env("POCKETSPLAT_PDA_MODEL", model);
         } else {
             cmd.env_remove("POCKETSPLAT_PDA_MODEL");
+        }
+        if let Some(image) = self.image {
+            if !features.contains(&"stream") {
+                features.push("stream");
+            }
+            cmd.env("POCKETSPLAT_PDA_IMAGE", image);
+        } else {
+            cmd.env_remove("POCKETSPLAT_PDA_IMAGE");
         }
         if !features.is_empty() {
             cmd.args(["--features", &features.join(",")]);
@@ -670,8 +710,7 @@ pub fn check_memory(run: &Run, elf: &Path) -> Result<(Memory, u64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pocketsplat_core::splat::Stats;
-    use pocketsplat_pda::{frame_specs_for, Shadows};
+    use pocketsplat_pda::frame_specs_for;
 
     fn report(spec: FrameSpec, crc: u32) -> FrameReport {
         FrameReport {

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 pub mod arm;
 pub mod elf;
+pub mod fat;
 
 /// The workspace root (the folder holding the top-level `Cargo.toml`).
 pub fn workspace_root() -> PathBuf {

@@ -61,6 +61,7 @@ fn firmware_matches_host(
         target: TARGET,
         features,
         model: Some(&model),
+        image: None,
     };
     let elf = fw.build().unwrap();
     let run = fw.run(&elf, counter).unwrap();

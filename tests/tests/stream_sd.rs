@@ -4,9 +4,6 @@
 //! embedded-sdmmc's `VolumeManager` over a `BlockDevice` on the image file: the code path of an SD
 //! card on SPI. The streamed frame must equal the resident one. Under CI a missing tool fails.
 
-use std::path::Path;
-use std::process::Command;
-
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::STANDARD_VIEWS;
 use pocketsplat_core::stream::sdmmc::SdFile;
@@ -14,68 +11,8 @@ use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 use pocketsplat_sim::stream::sd::NoClock;
 use pocketsplat_sim::stream::{stream_render, FileBlockDevice, StreamOptions};
-use pocketsplat_tests::{model, under_ci};
-
-/// Whether `tool` runs; under CI its absence is a failure.
-fn have(tool: &str, package: &str) -> bool {
-    let ok = Command::new(tool)
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success() || !o.stderr.is_empty() || !o.stdout.is_empty());
-    assert!(
-        ok || !under_ci(),
-        "{tool} is missing and CI=true: install the apt package {package}"
-    );
-    if !ok {
-        eprintln!("note: {tool} not found (apt package {package}); test skipped");
-    }
-    ok
-}
-
-fn run(cmd: &mut Command) {
-    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// Sectors before the partition (1 MiB, as partitioning tools align).
-const PART_START: u32 = 2048;
-
-/// A disk image: an MBR with one FAT16 (LBA) partition at sector 2048, formatted by `mkfs.fat`,
-/// holding `name` copied in by `mcopy`.
-fn make_image(dir: &Path, file: &[u8], name: &str) -> std::path::PathBuf {
-    let part = dir.join("part.img");
-    let host_file = dir.join("model.bin");
-    std::fs::write(&host_file, file).unwrap();
-    // Room for the file plus FAT overhead, at least 16 MB (FAT16 wants more than 4085 clusters).
-    let kib = (file.len() as u64 / 1024 + 1024).max(16 * 1024);
-    run(Command::new("mkfs.fat")
-        .args(["-C", "-F", "16", "-n", "POCKETSPLAT"])
-        .arg(&part)
-        .arg(kib.to_string()));
-    run(Command::new("mcopy")
-        .arg("-i")
-        .arg(&part)
-        .arg(&host_file)
-        .arg(format!("::{name}")));
-    let part_bytes = std::fs::read(&part).unwrap();
-    let sectors = (part_bytes.len() / 512) as u32;
-    let mut disk = vec![0u8; PART_START as usize * 512];
-    let entry = &mut disk[446..462];
-    entry[0] = 0x00; // not bootable
-    entry[4] = 0x0E; // FAT16, LBA
-    entry[8..12].copy_from_slice(&PART_START.to_le_bytes());
-    entry[12..16].copy_from_slice(&sectors.to_le_bytes());
-    disk[510] = 0x55;
-    disk[511] = 0xAA;
-    disk.extend_from_slice(&part_bytes);
-    let image = dir.join("sd.img");
-    std::fs::write(&image, disk).unwrap();
-    image
-}
+use pocketsplat_tests::fat::{have, make_image};
+use pocketsplat_tests::model;
 
 #[test]
 fn the_bunny_streams_from_a_fat_image_through_embedded_sdmmc() {

@@ -9,6 +9,8 @@
 //!   feature, a QSplat file, told apart by its magic) at several cutoffs (and, for a tri-grid with
 //!   the `shadows` feature, with one-pass and two-pass shadows), the frames the firmware renders when
 //!   a baked model is linked in, and the line it prints per frame.
+//! - [`stream`] (`stream` feature): the bunny streamed from a FAT image through a 64 KB block cache,
+//!   the frames drawn by the same code as a resident model's ([`render_stream_view`]).
 //! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
 //!   background), drawn when the firmware is built without a model.
 //!
@@ -24,8 +26,12 @@
 // Per-pixel work is integer only, as on the FPU-less device (DESIGN.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
+#[cfg(feature = "stream")]
+pub mod stream;
 pub mod views;
 
+#[cfg(feature = "stream")]
+pub use views::render_stream_view;
 pub use views::{
     frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, Format, FrameLine,
     FrameReport, FrameSpec, Model, ModelError, Phase, Shadows, Targets, ViewError, CUTOFFS_PX,

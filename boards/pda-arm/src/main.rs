@@ -33,12 +33,14 @@ mod firmware {
     use pocketsplat_core::shade::ShadingTable;
     #[cfg(feature = "shadows")]
     use pocketsplat_core::shadow::LightFrame;
-    #[cfg(feature = "model")]
+    #[cfg(any(feature = "model", feature = "stream"))]
     use pocketsplat_pda::Targets;
     #[cfg(feature = "shadows")]
     use pocketsplat_pda::SHADOW_MAP_SIZE;
     use pocketsplat_pda::{HEIGHT, WIDTH};
 
+    #[cfg(all(feature = "model", feature = "stream"))]
+    compile_error!("the features `model` (a model linked in) and `stream` (read from a disk image) exclude each other");
     #[cfg(all(feature = "selftest-fault", feature = "selftest-panic"))]
     compile_error!("the features `selftest-fault` and `selftest-panic` exclude each other");
 
@@ -55,13 +57,20 @@ mod firmware {
             [0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE];
         #[cfg(feature = "shadows")]
         static mut LIGHT: LightFrame = LightFrame::UNSET;
+        // The block cache and the per-block table of a streamed model (64 KB + 1 KB + 32 KB).
+        #[cfg(feature = "stream")]
+        static mut CACHE: [u8; pocketsplat_pda::stream::CACHE_BYTES] =
+            [0; pocketsplat_pda::stream::CACHE_BYTES];
+        #[cfg(feature = "stream")]
+        static mut STREAM: pocketsplat_pda::stream::StreamTables =
+            pocketsplat_pda::stream::StreamTables::EMPTY;
 
         selftest();
         memory::paint_stack();
         let psram_bytes = memory::check_psram();
 
-        #[cfg(feature = "model")]
-        render_model(Targets {
+        #[cfg(any(feature = "model", feature = "stream"))]
+        let targets = Targets {
             color: COLOR,
             depth: DEPTH,
             table: TABLE,
@@ -69,8 +78,12 @@ mod firmware {
             shadow: SHADOW,
             #[cfg(feature = "shadows")]
             light: LIGHT,
-        });
-        #[cfg(not(feature = "model"))]
+        };
+        #[cfg(feature = "model")]
+        render_model(targets);
+        #[cfg(feature = "stream")]
+        stream::render(targets, STREAM.with_cache(CACHE));
+        #[cfg(not(any(feature = "model", feature = "stream")))]
         {
             #[cfg(feature = "shadows")]
             let _ = (&SHADOW, &LIGHT);
@@ -132,7 +145,7 @@ mod firmware {
     }
 
     /// Frame 0 of the test pattern (no model linked in).
-    #[cfg(not(feature = "model"))]
+    #[cfg(not(any(feature = "model", feature = "stream")))]
     fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
         use pocketsplat_pda::{frame_crc, render_test_frame, FrameCrc, Phase, PIXELS};
         // Opaque frame number: under LTO the whole frame is otherwise a constant the compiler may fold.
@@ -152,6 +165,156 @@ mod firmware {
         marks::hit(Phase::End);
         let crc = frame_crc(fb);
         hprintln!("{}", FrameCrc { frame, crc });
+    }
+
+    /// The model streamed from a FAT disk image on the host: semihosting file reads behind an
+    /// embedded-sdmmc [`BlockDevice`](embedded_sdmmc::BlockDevice), so that the volume, directory
+    /// and file are found and read by the code that reads an SD card on SPI.
+    #[cfg(feature = "stream")]
+    mod stream {
+        use core::cell::Cell;
+
+        use cortex_m_semihosting::{hprintln, nr, syscall};
+        use embedded_sdmmc::{Block, BlockCount, BlockDevice, BlockIdx, Mode, VolumeIdx};
+        use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
+        use pocketsplat_pda::stream::{stream_frames, StreamMemory};
+        use pocketsplat_pda::Targets;
+
+        /// The image's absolute path, NUL-terminated for SYS_OPEN (build.rs).
+        const IMAGE: &str = concat!(env!("POCKETSPLAT_PDA_IMAGE_FILE"), "\0");
+        /// The model's name in the volume's root directory (8.3).
+        const MODEL_FILE: &str = "BUNNY.TG";
+
+        /// Why a semihosting file operation failed (the host returned -1, or read short).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum HostIoError {
+            /// SYS_OPEN or SYS_FLEN of the image failed.
+            Open,
+            /// SYS_SEEK or SYS_READ of this 512-byte block failed or came short.
+            Read(u32),
+            /// The image is opened read-only.
+            Write(u32),
+        }
+
+        impl core::fmt::Display for HostIoError {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                match self {
+                    HostIoError::Open => write!(f, "cannot open {}", &IMAGE[..IMAGE.len() - 1]),
+                    HostIoError::Read(b) => write!(f, "reading block {b} failed"),
+                    HostIoError::Write(b) => write!(f, "block {b}: the image is read-only"),
+                }
+            }
+        }
+
+        impl core::error::Error for HostIoError {}
+
+        /// A disk image on the semihosting host, 512-byte blocks, read-only.
+        pub struct HostDisk {
+            handle: usize,
+            blocks: u32,
+            /// 512-byte blocks read so far.
+            pub reads: Cell<u32>,
+        }
+
+        impl HostDisk {
+            /// Opens the image at the NUL-terminated `path` (binary, read-only).
+            fn open(path: &str) -> Result<Self, HostIoError> {
+                let len = path.len() - 1;
+                // SAFETY: SYS_OPEN reads `len` bytes of the NUL-terminated string at the pointer,
+                // which lives for the call; nothing else is touched.
+                let handle = unsafe { syscall!(OPEN, path.as_ptr(), nr::open::R_BINARY, len) };
+                if handle as isize == -1 {
+                    return Err(HostIoError::Open);
+                }
+                // SAFETY: SYS_FLEN takes a handle returned by SYS_OPEN.
+                let bytes = unsafe { syscall!(FLEN, handle) } as isize;
+                if bytes < 0 {
+                    return Err(HostIoError::Open);
+                }
+                Ok(Self {
+                    handle,
+                    blocks: (bytes as usize / Block::LEN) as u32,
+                    reads: Cell::new(0),
+                })
+            }
+        }
+
+        impl BlockDevice for HostDisk {
+            type Error = HostIoError;
+
+            fn read(&self, blocks: &mut [Block], start: BlockIdx) -> Result<(), HostIoError> {
+                for (i, b) in blocks.iter_mut().enumerate() {
+                    let idx = start.0.saturating_add(i as u32);
+                    let at = (idx as usize)
+                        .checked_mul(Block::LEN)
+                        .filter(|_| idx < self.blocks)
+                        .ok_or(HostIoError::Read(idx))?;
+                    // SAFETY: SYS_SEEK takes an open handle and an absolute offset.
+                    if unsafe { syscall!(SEEK, self.handle, at) } != 0 {
+                        return Err(HostIoError::Read(idx));
+                    }
+                    // SAFETY: SYS_READ writes at most `Block::LEN` bytes into `b.contents`, which
+                    // is that long and borrowed mutably for the call.
+                    let left =
+                        unsafe { syscall!(READ, self.handle, b.contents.as_mut_ptr(), Block::LEN) };
+                    if left != 0 {
+                        return Err(HostIoError::Read(idx));
+                    }
+                    self.reads.set(self.reads.get().wrapping_add(1));
+                }
+                Ok(())
+            }
+
+            fn write(&self, _: &[Block], start: BlockIdx) -> Result<(), HostIoError> {
+                Err(HostIoError::Write(start.0))
+            }
+
+            fn num_blocks(&self) -> Result<BlockCount, HostIoError> {
+                Ok(BlockCount(self.blocks))
+            }
+        }
+
+        /// Opens the image, its first FAT volume and [`MODEL_FILE`], and draws the streamed
+        /// sequence, one line per frame; any failure to get that far ends the run with a message.
+        pub fn render(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
+            let disk = match HostDisk::open(IMAGE) {
+                Ok(d) => d,
+                Err(e) => super::fail(format_args!("image: {e}")),
+            };
+            hprintln!("image blocks {}", disk.blocks);
+            let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+                embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+            let file = volumes
+                .open_raw_volume(VolumeIdx(0))
+                .and_then(|v| Ok((v, volumes.open_root_dir(v)?)))
+                .and_then(|(v, root)| {
+                    Ok((
+                        v,
+                        volumes.open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)?,
+                    ))
+                });
+            let (_volume, file) = match file {
+                Ok(f) => f,
+                Err(e) => super::fail(format_args!("{MODEL_FILE}: {e:?}")),
+            };
+            let sd = SdFile::new(&volumes, file);
+            match sd.len() {
+                Ok(n) => hprintln!("model file {} bytes {}", MODEL_FILE, n),
+                Err(e) => super::fail(format_args!("{MODEL_FILE}: {e:?}")),
+            }
+            // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably).
+            #[cfg(feature = "selftest-flaky")]
+            let mut src = pocketsplat_pda::stream::flaky(sd);
+            #[cfg(not(feature = "selftest-flaky"))]
+            let mut src = sd;
+            match stream_frames(&mut src, mem, &mut targets, super::marks::hit, |f| {
+                hprintln!("{}", f)
+            }) {
+                Ok(totals) => hprintln!("{}", totals),
+                Err(e) => super::fail(format_args!("stream: {e}")),
+            }
+            hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+        }
     }
 
     /// The baked model, in PSRAM (memory.x), loaded by QEMU with the rest of the ELF.

@@ -32,8 +32,10 @@ use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAU
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
+#[cfg(feature = "stream")]
+use pocketsplat_core::stream::TgStream;
 use pocketsplat_core::tg::{
-    render_tg, FrameError, RenderOptions, TgError, TgFrame, TriGrid, Verify,
+    render_tg, FrameError, Header, RenderOptions, TgError, TgFrame, TriGrid, Verify,
 };
 
 use crate::{HEIGHT, WIDTH};
@@ -531,45 +533,129 @@ pub fn render_view(
     mut mark: impl FnMut(Phase),
 ) -> Result<Drawn, ViewError> {
     mark(Phase::Setup);
-    let cam = Camera::orbit(Sphere::from_bounds(model.bounds()), view, DEFAULT_FOV_DEG);
-    let light = camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1);
+    let (cam, light) = view_camera(model.bounds(), view);
     #[cfg(feature = "shadows")]
     let slot = &mut *targets.light;
     #[cfg(not(feature = "shadows"))]
     let slot = core::marker::PhantomData;
     let frame = Frame::new(model, &cam, cutoff_px, shadows, light, slot)?;
-
-    mark(Phase::Table);
-    let table_rebuilt =
-        targets
-            .table
-            .update(&[model.material()], light, camera::scale(cam.forward, -1.0));
-
-    mark(Phase::Clear);
-    let mut fb = Framebuffer::new(targets.color, targets.depth);
-    fb.clear(0);
-
-    mark(Phase::Traverse);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
+    #[cfg(feature = "shadows")]
+    let shadow = &mut *targets.shadow;
+    let canvas = Canvas {
+        color: targets.color,
+        depth: targets.depth,
         table: targets.table,
+    };
+    Ok(canvas.draw(
+        model.material(),
+        &cam,
+        light,
+        &mut mark,
+        |sink| match &frame {
+            Frame::TriGrid(grid, f) => render_tg(grid, f, sink),
+            #[cfg(feature = "shadows")]
+            Frame::TriGridShadowed(grid, f, light, mode) => {
+                let mut map = ShadowMap::new(shadow, SHADOW_MAP_SIZE);
+                render_tg_shadowed(grid, f, light, &mut map, *mode, sink)
+            }
+            #[cfg(feature = "qsplat")]
+            Frame::QSplat(file, f) => render_qs_colored(file, f, sink),
+        },
+    ))
+}
+
+/// [`render_view`] of a tri-grid streamed through a block cache (`stream` feature): the same
+/// camera, shading table, clear and splat sink, with [`TgStream::render`] as the traversal (it
+/// draws what is resident and queues what is missing; [`TgStream::serve`] reads it). Without
+/// shadows: the streamed traversal takes no light pass yet.
+///
+/// # Errors
+/// When the frame cannot be set up ([`ViewError::TriGrid`]).
+#[cfg(feature = "stream")]
+pub fn render_stream_view(
+    stream: &mut TgStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut Targets<'_>,
+    mut mark: impl FnMut(Phase),
+) -> Result<Drawn, ViewError> {
+    mark(Phase::Setup);
+    let (cam, light) = view_camera(stream.header().bounds, view);
+    let frame = tg_frame(stream.header(), &cam, cutoff_px)?;
+    let canvas = Canvas {
+        color: targets.color,
+        depth: targets.depth,
+        table: targets.table,
+    };
+    Ok(
+        canvas.draw(DEFAULT_MATERIAL, &cam, light, &mut mark, |sink| {
+            stream.render(&frame, sink)
+        }),
+    )
+}
+
+/// The camera of `view` around a model with `bounds`, and the light (a unit vector): the start of
+/// every frame's setup.
+fn view_camera(bounds: [[f32; 3]; 2], view: View) -> (Camera, camera::Vec3) {
+    let cam = Camera::orbit(Sphere::from_bounds(bounds), view, DEFAULT_FOV_DEG);
+    let light = camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1);
+    (cam, light)
+}
+
+/// A tri-grid's per-frame tables for `cam` at `cutoff_px`, resident or streamed alike.
+fn tg_frame(header: &Header, cam: &Camera, cutoff_px: f32) -> Result<TgFrame, ViewError> {
+    let opts = RenderOptions {
+        cutoff_px,
         kernel: KERNEL,
+        ..RenderOptions::default()
     };
-    let stats = match &frame {
-        Frame::TriGrid(grid, f) => render_tg(grid, f, &mut sink),
-        #[cfg(feature = "shadows")]
-        Frame::TriGridShadowed(grid, f, light, mode) => {
-            let mut map = ShadowMap::new(targets.shadow, SHADOW_MAP_SIZE);
-            render_tg_shadowed(grid, f, light, &mut map, *mode, &mut sink)
+    TgFrame::new(header, &Placement::IDENTITY, cam, &opts).map_err(ViewError::TriGrid)
+}
+
+/// The buffers a frame draws into (the shadow map and light tables stay with the traversal).
+struct Canvas<'t> {
+    color: &'t mut [[u16; WIDTH]; HEIGHT],
+    depth: &'t mut [[u16; WIDTH]; HEIGHT],
+    table: &'t mut ShadingTable<1>,
+}
+
+/// The splat sink every frame draws through.
+type Sink<'f, 'b, 't> = ShadedRaster<'f, 'b, 't, WIDTH, HEIGHT, 1>;
+
+impl Canvas<'_> {
+    /// The steps after setup that every frame shares, whatever draws its splats: the shading table
+    /// for `material` under `light` seen from `cam` ([`Phase::Table`]), clearing ([`Phase::Clear`]),
+    /// then `traverse` into the shaded raster ([`Phase::Traverse`]) and [`Phase::End`].
+    fn draw(
+        self,
+        material: Material,
+        cam: &Camera,
+        light: camera::Vec3,
+        mark: &mut impl FnMut(Phase),
+        traverse: impl FnOnce(&mut Sink<'_, '_, '_>) -> Stats,
+    ) -> Drawn {
+        mark(Phase::Table);
+        let table_rebuilt = self
+            .table
+            .update(&[material], light, camera::scale(cam.forward, -1.0));
+
+        mark(Phase::Clear);
+        let mut fb = Framebuffer::new(self.color, self.depth);
+        fb.clear(0);
+
+        mark(Phase::Traverse);
+        let mut sink = ShadedRaster {
+            fb: &mut fb,
+            table: self.table,
+            kernel: KERNEL,
+        };
+        let stats = traverse(&mut sink);
+        mark(Phase::End);
+        Drawn {
+            stats,
+            table_rebuilt,
         }
-        #[cfg(feature = "qsplat")]
-        Frame::QSplat(file, f) => render_qs_colored(file, f, &mut sink),
-    };
-    mark(Phase::End);
-    Ok(Drawn {
-        stats,
-        table_rebuilt,
-    })
+    }
 }
 
 /// A frame set up for its model's traversal: the format's per-frame integer tables.
@@ -599,13 +685,7 @@ impl<'m, 'a> Frame<'m, 'a> {
     ) -> Result<Self, ViewError> {
         match model {
             Model::TriGrid(grid) => {
-                let opts = RenderOptions {
-                    cutoff_px,
-                    kernel: KERNEL,
-                    ..RenderOptions::default()
-                };
-                let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, cam, &opts)
-                    .map_err(ViewError::TriGrid)?;
+                let frame = tg_frame(grid.header(), cam, cutoff_px)?;
                 match shadows {
                     Shadows::Off => Ok(Frame::TriGrid(grid, frame)),
                     #[cfg(feature = "shadows")]

@@ -2,7 +2,7 @@
 //! path whether the [`BlockDevice`] is an SD card on SPI, a disk image on the host or semihosting
 //! file reads under QEMU.
 
-use embedded_sdmmc::{BlockDevice, RawFile, TimeSource, VolumeManager};
+use embedded_sdmmc::{BlockDevice, RawFile, TimeSource, Timestamp, VolumeManager};
 
 use super::ChunkSource;
 
@@ -78,5 +78,23 @@ where
             done += n;
         }
         Ok(())
+    }
+}
+
+/// A clock for a read-only volume manager: every timestamp is the FAT epoch (nothing is written, so
+/// no date is ever stored). One definition for the simulator, the QEMU firmware and a board.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoClock;
+
+impl TimeSource for NoClock {
+    fn get_timestamp(&self) -> Timestamp {
+        Timestamp {
+            year_since_1970: 10,
+            zero_indexed_month: 0,
+            zero_indexed_day: 0,
+            hours: 0,
+            minutes: 0,
+            seconds: 0,
+        }
     }
 }

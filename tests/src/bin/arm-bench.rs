@@ -398,6 +398,7 @@ fn bench_model(
         target,
         features,
         model: Some(&file.path),
+        image: None,
     };
     const OFF: &[Shadows] = &[Shadows::Off];
     // (firmware, the modes it renders)

@@ -63,19 +63,5 @@ impl BlockDevice for FileBlockDevice {
     }
 }
 
-/// A clock for a read-only volume manager: every timestamp is the FAT epoch.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct NoClock;
-
-impl embedded_sdmmc::TimeSource for NoClock {
-    fn get_timestamp(&self) -> embedded_sdmmc::Timestamp {
-        embedded_sdmmc::Timestamp {
-            year_since_1970: 10,
-            zero_indexed_month: 0,
-            zero_indexed_day: 0,
-            hours: 0,
-            minutes: 0,
-            seconds: 0,
-        }
-    }
-}
+/// The read-only clock, the core's (one definition for every board).
+pub use pocketsplat_core::stream::sdmmc::NoClock;

@@ -1,0 +1,369 @@
+//! The streamed frame sequence (`stream` feature): the firmware reads the bunny from a FAT image
+//! through embedded-sdmmc and a 64 KB block cache, and draws, one line per frame:
+//!
+//! 1. the std view from a cold cache until a frame misses no block ([`Leg::Std`]);
+//! 2. an orbit of the std view's camera, [`ORBIT_STEPS`] steps of [`ORBIT_STEP_DEG`] in azimuth, one
+//!    frame each, reading at most [`IO_BUDGET_BYTES`] after each ([`Leg::Orbit`]);
+//! 3. the std view again until converged, after the orbit has evicted what it held
+//!    ([`Leg::Return`]).
+//!
+//! The sequence is [`stream_frames`], called by the firmware over semihosting and by the host tests
+//! over the same image file, so both print the same lines; a converged frame is the frame the
+//! resident file gives ([`crate::render_view`]), and the tests check that too.
+//!
+//! Why [`STREAM_CUTOFF_PX`] is 16: a frame converges only when every block it wants is resident at
+//! once. The depth-6 bunny in 4 KB blocks holds 16 of them in 64 KB; its std view wants about 40 at
+//! 8 px and more still below (nearly all 5 MB at 1 px), and 5 at 16 px. Finer frames are drawn
+//! coarser where blocks are absent, which is the point of streaming, but never converge.
+
+use core::fmt;
+
+use pocketsplat_core::camera::{View, STANDARD_VIEWS};
+use pocketsplat_core::stream::torture::Flaky;
+use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
+
+use crate::{render_stream_view, Drawn, Phase, Targets, ViewError};
+
+/// Bytes of block cache (RAM, a static on the device).
+pub const CACHE_BYTES: usize = 64 * 1024;
+/// Cache slots: enough for the smallest block a `.tg` has (512 bytes); a file with larger blocks
+/// uses `CACHE_BYTES / block size` of them.
+pub const CACHE_SLOTS: usize = CACHE_BYTES / 512;
+/// Blocks a streamed file may have (one [`BlockEntry`] each, 16 bytes): 8 MB in 4 KB blocks.
+pub const MAX_FILE_BLOCKS: usize = 2048;
+/// Bytes read after each frame at most: 16 KB, half a 30 fps frame of a 1 MB/s SPI SD card.
+pub const IO_BUDGET_BYTES: u32 = 16 * 1024;
+/// LOD cutoff of every streamed frame, pixels (module docs: why 16).
+pub const STREAM_CUTOFF_PX: u8 = 16;
+/// Frames of the orbit.
+pub const ORBIT_STEPS: u32 = 24;
+/// Azimuth step of the orbit, degrees (24 × 15° = one turn).
+pub const ORBIT_STEP_DEG: u32 = 15;
+/// Frames a leg that waits for convergence may take before the sequence gives up on it.
+pub const MAX_CONVERGE_FRAMES: u32 = 64;
+
+/// `src` through core's torture source with this build's fixed seed: 10 % of reads fail, 10 % arrive
+/// with one bit flipped. The `selftest-flaky` firmware and its host twin stream through it, so that
+/// both see the same failures.
+pub fn flaky<S: ChunkSource>(src: S) -> Flaky<S> {
+    Flaky::new(src, 0x5EED_F1A4, 10, 10)
+}
+
+/// The tables a [`TgStream`] of this sequence needs beside its cache blocks, in one piece (one
+/// `static mut` for cortex-m-rt's entry to hand over; a box on the host). Apart from the blocks
+/// because their empty entries are not zero: as a static they sit in `.data`, whose image flash
+/// holds, while the 64 KB of blocks stay in `.bss`.
+pub struct StreamTables {
+    /// Cache slots.
+    pub slots: [SlotEntry; CACHE_SLOTS],
+    /// One entry per block of the file.
+    pub blocks: [BlockEntry; MAX_FILE_BLOCKS],
+}
+
+impl StreamTables {
+    /// Empty tables.
+    pub const EMPTY: Self = Self {
+        slots: [SlotEntry::EMPTY; CACHE_SLOTS],
+        blocks: [BlockEntry::EMPTY; MAX_FILE_BLOCKS],
+    };
+
+    /// These tables and the cache blocks `data`, as [`stream_frames`] takes them.
+    pub fn with_cache<'a>(&'a mut self, data: &'a mut [u8; CACHE_BYTES]) -> StreamMemory<'a> {
+        StreamMemory {
+            data,
+            slots: &mut self.slots,
+            blocks: &mut self.blocks,
+        }
+    }
+}
+
+/// The caller's memory for a [`TgStream`] (statics on the device).
+pub struct StreamMemory<'a> {
+    /// Cache blocks, [`CACHE_BYTES`].
+    pub data: &'a mut [u8; CACHE_BYTES],
+    /// Cache slots.
+    pub slots: &'a mut [SlotEntry; CACHE_SLOTS],
+    /// One entry per block of the file.
+    pub blocks: &'a mut [BlockEntry; MAX_FILE_BLOCKS],
+}
+
+/// A part of the sequence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Leg {
+    /// The std view from a cold cache, until converged.
+    Std,
+    /// The orbit.
+    Orbit,
+    /// The std view again, until converged.
+    Return,
+}
+
+impl Leg {
+    /// Every leg, in order.
+    pub const ALL: [Leg; 3] = [Leg::Std, Leg::Orbit, Leg::Return];
+
+    /// `std`, `orbit` or `return`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Leg::Std => "std",
+            Leg::Orbit => "orbit",
+            Leg::Return => "return",
+        }
+    }
+
+    /// The leg called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+}
+
+/// The std view turned by `az_deg` degrees of azimuth.
+// Camera setup, once a frame: floats are allowed there (DESIGN.md, Numbers), and an integer step
+// in degrees is exact in f64 on both machines.
+#[allow(clippy::float_arithmetic)]
+pub fn orbit_view(az_deg: u32) -> View {
+    let std = STANDARD_VIEWS[0].1;
+    View::new(std.az_deg + f64::from(az_deg), std.el_deg, std.dist)
+}
+
+/// One streamed frame: `stream <leg> <n> az <deg> crc 0x… missing M read B prefetched P splats S
+/// nodes N`. `missing` counts the blocks the frame wanted and did not have (0: converged); `read` the
+/// bytes read after it (`prefetched` of them ahead of need, when nothing was missing).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StreamFrame {
+    /// Which leg.
+    pub leg: Leg,
+    /// Frame number within the leg, from 0.
+    pub index: u32,
+    /// Azimuth turned from the std view, degrees.
+    pub az_deg: u32,
+    /// CRC-32 of the colour buffer.
+    pub crc: u32,
+    /// Blocks missing from the frame.
+    pub missing: u32,
+    /// Bytes read after the frame.
+    pub read: u32,
+    /// Of those, bytes prefetched.
+    pub prefetched: u32,
+    /// Splats drawn.
+    pub splats: u32,
+    /// Nodes visited.
+    pub nodes: u32,
+}
+
+impl StreamFrame {
+    /// Whether the frame missed nothing: it is the frame the resident file gives.
+    pub fn converged(&self) -> bool {
+        self.missing == 0
+    }
+
+    /// Parses a line printed by [`fmt::Display`]; `None` for any other line.
+    pub fn parse(line: &str) -> Option<Self> {
+        let mut w = line.split_ascii_whitespace();
+        if w.next()? != "stream" {
+            return None;
+        }
+        let leg = Leg::from_name(w.next()?)?;
+        let index = w.next()?.parse().ok()?;
+        let mut after = |key: &str| -> Option<&str> { (w.next()? == key).then(|| w.next())? };
+        let az_deg = after("az")?.parse().ok()?;
+        let crc = u32::from_str_radix(after("crc")?.strip_prefix("0x")?, 16).ok()?;
+        let missing = after("missing")?.parse().ok()?;
+        let read = after("read")?.parse().ok()?;
+        let prefetched = after("prefetched")?.parse().ok()?;
+        let splats = after("splats")?.parse().ok()?;
+        let nodes = after("nodes")?.parse().ok()?;
+        if w.next().is_some() {
+            return None;
+        }
+        Some(Self {
+            leg,
+            index,
+            az_deg,
+            crc,
+            missing,
+            read,
+            prefetched,
+            splats,
+            nodes,
+        })
+    }
+}
+
+impl fmt::Display for StreamFrame {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "stream {} {} az {} crc {:#010x} missing {} read {} prefetched {} splats {} nodes {}",
+            self.leg.name(),
+            self.index,
+            self.az_deg,
+            self.crc,
+            self.missing,
+            self.read,
+            self.prefetched,
+            self.splats,
+            self.nodes
+        )
+    }
+}
+
+/// What the whole sequence read: `stream total bytes B file F frames N read_errors E crc_errors C
+/// evictions V cache_blocks K`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StreamTotals {
+    /// Bytes read, the header and CRC table included.
+    pub bytes: u64,
+    /// Bytes in the file.
+    pub file_bytes: u64,
+    /// Frames drawn.
+    pub frames: u32,
+    /// Reads the medium failed.
+    pub read_errors: u32,
+    /// Blocks that failed their CRC.
+    pub crc_errors: u32,
+    /// Blocks evicted.
+    pub evictions: u32,
+    /// Cache capacity, blocks.
+    pub cache_blocks: u32,
+}
+
+impl fmt::Display for StreamTotals {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "stream total bytes {} file {} frames {} read_errors {} crc_errors {} evictions {} cache_blocks {}",
+            self.bytes,
+            self.file_bytes,
+            self.frames,
+            self.read_errors,
+            self.crc_errors,
+            self.evictions,
+            self.cache_blocks
+        )
+    }
+}
+
+/// Why the sequence stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StreamRunError<E> {
+    /// The stream could not be opened (header or CRC table unreadable, file too large).
+    Open(pocketsplat_core::stream::StreamError<E>),
+    /// A frame could not be set up.
+    View(ViewError),
+    /// A leg did not converge within [`MAX_CONVERGE_FRAMES`] (a block that keeps failing).
+    NotConverged(Leg),
+}
+
+impl<E: fmt::Debug> fmt::Display for StreamRunError<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StreamRunError::Open(e) => write!(f, "opening the stream: {e}"),
+            StreamRunError::View(e) => write!(f, "{e}"),
+            StreamRunError::NotConverged(leg) => write!(
+                f,
+                "leg {} did not converge in {MAX_CONVERGE_FRAMES} frames",
+                leg.name()
+            ),
+        }
+    }
+}
+
+/// Opens the `.tg` on `src` over `mem` and draws the sequence into `targets`, handing each frame's
+/// line to `report` as it is drawn (`mark` as [`crate::render_standard_view`]'s). A failed read
+/// leaves its block absent: the frame is drawn coarser and the block read again later.
+///
+/// # Errors
+/// A [`StreamRunError`]: the stream cannot be opened, a frame cannot be set up, or a leg does not
+/// converge.
+pub fn stream_frames<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    mem: StreamMemory<'_>,
+    targets: &mut Targets<'_>,
+    mut mark: impl FnMut(Phase),
+    mut report: impl FnMut(&StreamFrame),
+) -> Result<StreamTotals, StreamRunError<C::Error>> {
+    let mut stream =
+        TgStream::open(src, mem.data, mem.slots, mem.blocks).map_err(StreamRunError::Open)?;
+    let cutoff = f32::from(STREAM_CUTOFF_PX);
+    let mut frame = |stream: &mut TgStream<'_>,
+                     src: &mut C,
+                     leg: Leg,
+                     index: u32,
+                     az_deg: u32|
+     -> Result<StreamFrame, StreamRunError<C::Error>> {
+        let drawn: Drawn =
+            render_stream_view(stream, orbit_view(az_deg), cutoff, targets, &mut mark)
+                .map_err(StreamRunError::View)?;
+        let crc = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth).crc();
+        let missing = stream.missing();
+        let served = stream.serve(src, IO_BUDGET_BYTES);
+        let line = StreamFrame {
+            leg,
+            index,
+            az_deg,
+            crc,
+            missing,
+            read: served.bytes,
+            prefetched: served.prefetched << stream.header().block_log2,
+            splats: drawn.stats.splats,
+            nodes: drawn.stats.nodes_visited,
+        };
+        report(&line);
+        Ok(line)
+    };
+    for leg in Leg::ALL {
+        if leg == Leg::Orbit {
+            for k in 0..ORBIT_STEPS {
+                frame(&mut stream, src, leg, k, k * ORBIT_STEP_DEG)?;
+            }
+            continue;
+        }
+        let mut index = 0;
+        while !frame(&mut stream, src, leg, index, 0)?.converged() {
+            index += 1;
+            if index >= MAX_CONVERGE_FRAMES {
+                return Err(StreamRunError::NotConverged(leg));
+            }
+        }
+    }
+    let c = stream.counters();
+    Ok(StreamTotals {
+        bytes: c.bytes_read,
+        file_bytes: u64::from(stream.header().blocks) << stream.header().block_log2,
+        frames: c.frames,
+        read_errors: c.read_errors,
+        crc_errors: c.crc_errors,
+        evictions: c.evictions,
+        cache_blocks: stream.cache().capacity() as u32,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stream_lines_round_trip() {
+        let f = StreamFrame {
+            leg: Leg::Orbit,
+            index: 3,
+            az_deg: 45,
+            crc: 0xdead_beef,
+            missing: 2,
+            read: 16384,
+            prefetched: 0,
+            splats: 10,
+            nodes: 20,
+        };
+        let line = f.to_string();
+        assert_eq!(
+            line,
+            "stream orbit 3 az 45 crc 0xdeadbeef missing 2 read 16384 prefetched 0 splats 10 nodes 20"
+        );
+        assert_eq!(StreamFrame::parse(&line), Some(f));
+        assert_eq!(StreamFrame::parse(&format!("{line} x")), None);
+        assert_eq!(StreamFrame::parse("stream total bytes 1"), None);
+        assert_eq!(orbit_view(0), STANDARD_VIEWS[0].1);
+    }
+}

@@ -1,0 +1,223 @@
+//! The bunny streamed under QEMU (issue 7): the firmware built with `stream` opens a FAT disk image
+//! on the host through semihosting file reads behind an embedded-sdmmc `BlockDevice` (the SD card's
+//! code path: MBR, FAT16 volume, root directory, `BUNNY.TG`), and draws the bunny at paper level 5
+//! (tri-grid depth 6, 5 MB) through a 64 KB block cache: the std view from a cold cache until it
+//! converges, an orbit of 24 steps, and the std view again (`pocketsplat_pda::stream`).
+//!
+//! Checked: the firmware's lines equal those of the same sequence run on the host over the same
+//! image (so every frame, byte count and missing-block count is the host's), and every converged
+//! frame has the CRC of the host's resident render of that view. Printed (`-- --nocapture`):
+//! frames to convergence, bytes read per orbit frame, total bytes against the file size, and the
+//! firmware's memory.
+//!
+//! Needs `qemu-system-arm`, `mkfs.fat` (dosfstools), `mcopy` (mtools) and the bunny scan: without
+//! them this fails under CI and is skipped, with a note, elsewhere.
+
+use std::path::Path;
+
+use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
+use pocketsplat_core::stream::ChunkSource;
+use pocketsplat_core::tg::Verify;
+use pocketsplat_pda::stream::{
+    orbit_view, stream_frames, Leg, StreamFrame, StreamTables, StreamTotals, CACHE_BYTES,
+    STREAM_CUTOFF_PX,
+};
+use pocketsplat_pda::Model;
+use pocketsplat_sim::stream::FileBlockDevice;
+use pocketsplat_tests::arm::{
+    baked_bunny, check_memory, have_qemu, target_dir, Firmware, HostFrames, TARGET,
+};
+use pocketsplat_tests::fat::{have, make_image};
+
+/// The model's name on the volume (the firmware opens it by this name).
+const MODEL_FILE: &str = "BUNNY.TG";
+
+/// The firmware's sequence on the host: the same library call over the same image, through
+/// embedded-sdmmc on a host file (and, when `flaky`, the same torture source as `selftest-flaky`).
+fn host_sequence(image: &Path, flaky: bool) -> (Vec<StreamFrame>, StreamTotals) {
+    let device = FileBlockDevice::open(image).unwrap();
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
+    let volume = volumes
+        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
+        .unwrap();
+    let root = volumes.open_root_dir(volume).unwrap();
+    let file = volumes
+        .open_file_in_dir(root, MODEL_FILE, embedded_sdmmc::Mode::ReadOnly)
+        .unwrap();
+    let mut sd = SdFile::new(&volumes, file);
+    if flaky {
+        sequence(&mut pocketsplat_pda::stream::flaky(sd))
+    } else {
+        sequence(&mut sd)
+    }
+}
+
+fn sequence<C: ChunkSource>(src: &mut C) -> (Vec<StreamFrame>, StreamTotals) {
+    let mut tables = Box::new(StreamTables::EMPTY);
+    let mut data = Box::new([0u8; CACHE_BYTES]);
+    let mem = tables.with_cache(&mut data);
+    let mut frames = HostFrames::new();
+    let mut lines = Vec::new();
+    let totals = stream_frames(src, mem, &mut frames.targets(), |_| {}, |f| lines.push(*f))
+        .unwrap_or_else(|e| panic!("host sequence: {e}"));
+    (lines, totals)
+}
+
+/// The `stream total …` line, read back.
+fn parse_totals(line: &str) -> Option<StreamTotals> {
+    let w: Vec<&str> = line.split_whitespace().collect();
+    let get = |key: &str| -> Option<u64> {
+        let i = w.iter().position(|x| *x == key)?;
+        w.get(i + 1)?.parse().ok()
+    };
+    Some(StreamTotals {
+        bytes: get("bytes")?,
+        file_bytes: get("file")?,
+        frames: get("frames")? as u32,
+        read_errors: get("read_errors")? as u32,
+        crc_errors: get("crc_errors")? as u32,
+        evictions: get("evictions")? as u32,
+        cache_blocks: get("cache_blocks")? as u32,
+    })
+}
+
+#[test]
+fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
+    let Some(totals) = stream_under_qemu(false) else {
+        return;
+    };
+    assert_eq!(totals.read_errors + totals.crc_errors, 0, "a clean medium");
+}
+
+/// `selftest-flaky`: a tenth of the reads fail and a tenth arrive damaged. Each bad block stays
+/// absent (the frame is drawn coarser, the block read again after a backoff), nothing panics, and
+/// the converged frames are still the resident file's.
+#[test]
+fn bad_reads_leave_blocks_absent_and_the_stream_still_converges_under_qemu() {
+    let Some(totals) = stream_under_qemu(true) else {
+        return;
+    };
+    assert!(
+        totals.read_errors > 0 && totals.crc_errors > 0,
+        "the torture source failed and damaged reads: {totals:?}"
+    );
+}
+
+/// Builds the image and the firmware (with `selftest-flaky` when `flaky`), runs it, checks its lines
+/// against the host's and its converged frames against the resident render, prints the figures and
+/// returns the totals; `None` when a tool or the scan is missing off CI.
+fn stream_under_qemu(flaky: bool) -> Option<StreamTotals> {
+    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return None;
+    }
+    let model = baked_bunny().unwrap()?;
+    let bytes = std::fs::read(&model).unwrap();
+    assert!(
+        bytes.len() > 8 * CACHE_BYTES,
+        "the model must be far larger than the cache"
+    );
+    // A fixed path per variant: the firmware is built with it, and rebuilding for each run would be
+    // waste (the two tests run in parallel, so each has its own).
+    let dir = target_dir().join(if flaky {
+        "models/sd-bunny-flaky"
+    } else {
+        "models/sd-bunny"
+    });
+    std::fs::create_dir_all(&dir).unwrap();
+    let image = make_image(&dir, &bytes, MODEL_FILE);
+    let features: &[&str] = if flaky { &["selftest-flaky"] } else { &[] };
+
+    let fw = Firmware {
+        target: TARGET,
+        features,
+        model: None,
+        image: Some(&image),
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0:\n{}",
+        run.transcript()
+    );
+    let stdout = run.stdout();
+    let arm: Vec<StreamFrame> = stdout.lines().filter_map(StreamFrame::parse).collect();
+    let arm_totals = run
+        .field("stream total")
+        .and_then(|t| parse_totals(&format!("stream total {t}")))
+        .unwrap_or_else(|| panic!("no `stream total` line:\n{}", run.transcript()));
+
+    // The same sequence on the host: same frames, same reads, same misses.
+    let (host, host_totals) = host_sequence(&image, flaky);
+    for (i, (a, h)) in arm.iter().zip(&host).enumerate() {
+        assert_eq!(a, h, "streamed frame {i} differs between ARM and host");
+    }
+    assert_eq!(arm.len(), host.len(), "frame count");
+    assert_eq!(arm_totals, host_totals);
+
+    // A converged frame is the resident file's frame.
+    let resident = Model::open(&bytes, Verify::Full).unwrap();
+    let mut frames = HostFrames::new();
+    let cutoff = f32::from(STREAM_CUTOFF_PX);
+    let mut checked = 0;
+    for f in arm.iter().filter(|f| f.converged()) {
+        let (crc, stats) = frames
+            .render_view(&resident, orbit_view(f.az_deg), cutoff)
+            .unwrap();
+        assert_eq!(
+            (f.crc, f.splats, f.nodes),
+            (crc, stats.splats, stats.nodes_visited),
+            "converged frame `{f}` differs from the resident render (crc {crc:#010x})"
+        );
+        checked += 1;
+    }
+    for leg in [Leg::Std, Leg::Return] {
+        let last = arm.iter().rfind(|f| f.leg == leg).expect("the leg ran");
+        assert!(last.converged(), "leg {} ends converged", leg.name());
+    }
+
+    let (memory, stack) = check_memory(&run, &elf).unwrap();
+    let frames_of = |leg: Leg| arm.iter().filter(|f| f.leg == leg).count();
+    let orbit: Vec<String> = arm
+        .iter()
+        .filter(|f| f.leg == Leg::Orbit)
+        .map(|f| format!("{}{}", f.read, if f.converged() { "" } else { "*" }))
+        .collect();
+    eprintln!(
+        "QEMU stream{}, cutoff {STREAM_CUTOFF_PX} px, cache {} blocks of {} KB ({CACHE_BYTES} B), \
+         image {} KB through embedded-sdmmc over semihosting",
+        if flaky { " (selftest-flaky)" } else { "" },
+        arm_totals.cache_blocks,
+        CACHE_BYTES as u32 / arm_totals.cache_blocks.max(1) / 1024,
+        std::fs::metadata(&image).unwrap().len() / 1024
+    );
+    eprintln!(
+        "  std from cold: converged after {} frames; back at std after the orbit: {} frames",
+        frames_of(Leg::Std),
+        frames_of(Leg::Return)
+    );
+    eprintln!(
+        "  orbit bytes read per frame (* = frame not converged): {}",
+        orbit.join(" ")
+    );
+    eprintln!(
+        "  total {} bytes read of a {}-byte file in {} frames ({} evictions, {} failed reads, {} damaged blocks); \
+         {checked} converged frames checked against the resident render",
+        arm_totals.bytes,
+        arm_totals.file_bytes,
+        arm_totals.frames,
+        arm_totals.evictions,
+        arm_totals.read_errors,
+        arm_totals.crc_errors
+    );
+    eprintln!(
+        "  {}: flash {} B, RAM {} B + stack {stack} B; {} sectors read through embedded-sdmmc",
+        fw.name(),
+        memory.flash,
+        memory.ram,
+        run.field("sectors_read").unwrap_or_default()
+    );
+    Some(arm_totals)
+}
