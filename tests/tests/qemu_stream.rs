@@ -84,30 +84,37 @@ fn parse_totals(line: &str) -> Option<StreamTotals> {
 
 #[test]
 fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
-    let Some(totals) = stream_under_qemu(false) else {
+    let Some((totals, marked)) = stream_under_qemu(false) else {
         return;
     };
     assert_eq!(totals.read_errors + totals.crc_errors, 0, "a clean medium");
+    assert_eq!(marked, 0, "no error marker without errors");
 }
 
 /// `selftest-flaky`: a tenth of the reads fail and a tenth arrive damaged. Each bad block stays
-/// absent (the frame is drawn coarser, the block read again after a backoff), nothing panics, and
-/// the converged frames are still the resident file's.
+/// absent (the frame is drawn coarser, the block read again after a backoff), nothing panics, the
+/// frames after a failed read show the error marker, and the converged frames without one are
+/// still the resident file's.
 #[test]
 fn bad_reads_leave_blocks_absent_and_the_stream_still_converges_under_qemu() {
-    let Some(totals) = stream_under_qemu(true) else {
+    let Some((totals, marked)) = stream_under_qemu(true) else {
         return;
     };
     assert!(
         totals.read_errors > 0 && totals.crc_errors > 0,
         "the torture source failed and damaged reads: {totals:?}"
     );
+    assert!(
+        marked > 0,
+        "frames after failed reads carry the error marker"
+    );
 }
 
 /// Builds the image and the firmware (with `selftest-flaky` when `flaky`), runs it, checks its lines
 /// against the host's and its converged frames against the resident render, prints the figures and
-/// returns the totals; `None` when a tool or the scan is missing off CI.
-fn stream_under_qemu(flaky: bool) -> Option<StreamTotals> {
+/// returns the totals and the number of frames drawn with the error marker; `None` when a tool or
+/// the scan is missing off CI.
+fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
     if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
         return None;
     }
@@ -162,7 +169,10 @@ fn stream_under_qemu(flaky: bool) -> Option<StreamTotals> {
     let mut frames = HostFrames::new();
     let cutoff = f32::from(STREAM_CUTOFF_PX);
     let mut checked = 0;
-    for f in arm.iter().filter(|f| f.converged()) {
+    // A frame after a failed read carries the error marker over it (same code on both sides, so
+    // the ARM and host CRCs above cover it); the others must be exactly the resident render.
+    let marked = arm.iter().filter(|f| f.failed > 0).count();
+    for f in arm.iter().filter(|f| f.converged() && f.failed == 0) {
         let (crc, stats) = frames
             .render_view(&resident, orbit_view(f.az_deg), cutoff)
             .unwrap();
@@ -219,5 +229,6 @@ fn stream_under_qemu(flaky: bool) -> Option<StreamTotals> {
         memory.ram,
         run.field("sectors_read").unwrap_or_default()
     );
-    Some(arm_totals)
+    eprintln!("  {marked} frames drawn with the read-error marker");
+    Some((arm_totals, marked))
 }

@@ -22,7 +22,7 @@ use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::stream::torture::Flaky;
 use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
 
-use crate::{render_stream_view, Drawn, Phase, Targets, ViewError};
+use crate::{render_stream_view, Drawn, Phase, Targets, ViewError, HEIGHT, WIDTH};
 
 /// Bytes of block cache (RAM, a static on the device).
 pub const CACHE_BYTES: usize = 64 * 1024;
@@ -126,9 +126,11 @@ pub fn orbit_view(az_deg: u32) -> View {
     View::new(std.az_deg + f64::from(az_deg), std.el_deg, std.dist)
 }
 
-/// One streamed frame: `stream <leg> <n> az <deg> crc 0x… missing M read B prefetched P splats S
-/// nodes N`. `missing` counts the blocks the frame wanted and did not have (0: converged); `read` the
-/// bytes read after it (`prefetched` of them ahead of need, when nothing was missing).
+/// One streamed frame: `stream <leg> <n> az <deg> crc 0x… missing M failed F read B prefetched P
+/// splats S nodes N`. `missing` counts the blocks the frame wanted and did not have (0: converged);
+/// `failed` the reads since the previous frame that erred or failed their CRC (the frame then shows
+/// [`draw_error_marker`]'s square); `read` the bytes read after it (`prefetched` of them ahead of
+/// need, when nothing was missing).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StreamFrame {
     /// Which leg.
@@ -141,6 +143,8 @@ pub struct StreamFrame {
     pub crc: u32,
     /// Blocks missing from the frame.
     pub missing: u32,
+    /// Reads that failed since the previous frame (the frame carries the error marker when not 0).
+    pub failed: u32,
     /// Bytes read after the frame.
     pub read: u32,
     /// Of those, bytes prefetched.
@@ -169,6 +173,7 @@ impl StreamFrame {
         let az_deg = after("az")?.parse().ok()?;
         let crc = u32::from_str_radix(after("crc")?.strip_prefix("0x")?, 16).ok()?;
         let missing = after("missing")?.parse().ok()?;
+        let failed = after("failed")?.parse().ok()?;
         let read = after("read")?.parse().ok()?;
         let prefetched = after("prefetched")?.parse().ok()?;
         let splats = after("splats")?.parse().ok()?;
@@ -182,6 +187,7 @@ impl StreamFrame {
             az_deg,
             crc,
             missing,
+            failed,
             read,
             prefetched,
             splats,
@@ -194,12 +200,13 @@ impl fmt::Display for StreamFrame {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "stream {} {} az {} crc {:#010x} missing {} read {} prefetched {} splats {} nodes {}",
+            "stream {} {} az {} crc {:#010x} missing {} failed {} read {} prefetched {} splats {} nodes {}",
             self.leg.name(),
             self.index,
             self.az_deg,
             self.crc,
             self.missing,
+            self.failed,
             self.read,
             self.prefetched,
             self.splats,
@@ -269,6 +276,26 @@ impl<E: fmt::Debug> fmt::Display for StreamRunError<E> {
     }
 }
 
+/// Side of the read-error marker, pixels.
+pub const MARKER_PX: u32 = 8;
+
+/// Red, RGB565.
+pub const MARKER_COLOR: u16 = 0xF800;
+
+/// The read-error marker: a red square in the top right corner, over the frame.
+pub fn draw_error_marker(fb: &mut pocketsplat_core::raster::Framebuffer<'_>) {
+    use embedded_graphics::pixelcolor::{raw::RawU16, Rgb565};
+    use embedded_graphics::prelude::*;
+    use embedded_graphics::primitives::{PrimitiveStyle, Rectangle};
+    let side = MARKER_PX;
+    let at = Point::new((WIDTH as u32 - side - 2) as i32, 2);
+    let red = Rgb565::from(RawU16::new(MARKER_COLOR));
+    // The framebuffer's drawing cannot fail (`Infallible`).
+    let _ = Rectangle::new(at, Size::new(side, side))
+        .into_styled(PrimitiveStyle::with_fill(red))
+        .draw(fb);
+}
+
 /// Opens the `.tg` on `src` over `mem` and draws the sequence into `targets`, handing each frame's
 /// line to `report` as it is drawn (`mark` as [`crate::render_standard_view`]'s). A failed read
 /// leaves its block absent: the frame is drawn coarser and the block read again later.
@@ -286,6 +313,7 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
     let mut stream =
         TgStream::open(src, mem.data, mem.slots, mem.blocks).map_err(StreamRunError::Open)?;
     let cutoff = f32::from(STREAM_CUTOFF_PX);
+    let mut failed_before = 0;
     let mut frame = |stream: &mut TgStream<'_>,
                      src: &mut C,
                      leg: Leg,
@@ -295,7 +323,16 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         let drawn: Drawn =
             render_stream_view(stream, orbit_view(az_deg), cutoff, targets, &mut mark)
                 .map_err(StreamRunError::View)?;
-        let crc = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth).crc();
+        // A read that failed since the last frame (the card erred, or was pulled): the frame is
+        // drawn with what is resident, and says so on screen.
+        let c = stream.counters();
+        let failed = c.read_errors + c.crc_errors - failed_before;
+        failed_before += failed;
+        let mut fb = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth);
+        if failed > 0 {
+            draw_error_marker(&mut fb);
+        }
+        let crc = fb.crc();
         let missing = stream.missing();
         let served = stream.serve(src, IO_BUDGET_BYTES);
         let line = StreamFrame {
@@ -304,6 +341,7 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
             az_deg,
             crc,
             missing,
+            failed,
             read: served.bytes,
             prefetched: served.prefetched << stream.header().block_log2,
             splats: drawn.stats.splats,
@@ -351,6 +389,7 @@ mod tests {
             az_deg: 45,
             crc: 0xdead_beef,
             missing: 2,
+            failed: 1,
             read: 16384,
             prefetched: 0,
             splats: 10,
@@ -359,11 +398,31 @@ mod tests {
         let line = f.to_string();
         assert_eq!(
             line,
-            "stream orbit 3 az 45 crc 0xdeadbeef missing 2 read 16384 prefetched 0 splats 10 nodes 20"
+            "stream orbit 3 az 45 crc 0xdeadbeef missing 2 failed 1 read 16384 prefetched 0 splats 10 nodes 20"
         );
         assert_eq!(StreamFrame::parse(&line), Some(f));
         assert_eq!(StreamFrame::parse(&format!("{line} x")), None);
         assert_eq!(StreamFrame::parse("stream total bytes 1"), None);
         assert_eq!(orbit_view(0), STANDARD_VIEWS[0].1);
+    }
+
+    #[test]
+    fn the_error_marker_is_a_red_square_in_the_top_right_corner_and_nothing_else() {
+        let mut color = std::vec![[0u16; WIDTH]; HEIGHT];
+        let mut depth = std::vec![[u16::MAX; WIDTH]; HEIGHT];
+        let (c, d): (&mut [[u16; WIDTH]; HEIGHT], &mut [[u16; WIDTH]; HEIGHT]) = (
+            (&mut color[..]).try_into().unwrap(),
+            (&mut depth[..]).try_into().unwrap(),
+        );
+        let mut fb = pocketsplat_core::raster::Framebuffer::new(c, d);
+        draw_error_marker(&mut fb);
+        let side = MARKER_PX as usize;
+        for (y, row) in color.iter().enumerate() {
+            for (x, &p) in row.iter().enumerate() {
+                let inside =
+                    (2..2 + side).contains(&y) && (WIDTH - side - 2..WIDTH - 2).contains(&x);
+                assert_eq!(p, if inside { MARKER_COLOR } else { 0 }, "pixel ({x}, {y})");
+            }
+        }
     }
 }

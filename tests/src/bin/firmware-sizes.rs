@@ -7,17 +7,20 @@
 //!
 //! Builds `pocketsplat-pda` for thumbv7m-none-eabi (mps2-an385) once per feature set, with the
 //! bunny linked into PSRAM where the set draws a model (a depth-6 tri-grid, or the QSplat file
-//! `pocketsplat bake --format qsplat` makes, as `arm-bench` bakes them), boots each in QEMU
+//! `pocketsplat bake --format qsplat` makes, as `arm-bench` bakes them, or on a FAT disk image
+//! that the `stream` set reads through semihosting as from an SD card), boots each in QEMU
 //! (no instruction counter) so that it renders its frames and reports its memory, checks the
 //! report against the ELF's sections, and prints a markdown table: flash (code, read-only data and
 //! `.data`'s initial values), RAM (statics), the stack's high-water mark, and PSRAM (the model).
 
-use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{ensure, Context, Result};
 use pocketsplat_pda::Format;
-use pocketsplat_tests::arm::{baked_bunny_as, check_memory, have_qemu, Firmware, TARGET};
+use pocketsplat_tests::arm::{
+    baked_bunny_as, check_memory, have_qemu, target_dir, Firmware, TARGET,
+};
+use pocketsplat_tests::fat::make_image;
 
 /// Seconds a run may take (the shadows build renders 48 frames of 2 M samples).
 const TIMEOUT_S: u32 = 900;
@@ -26,37 +29,50 @@ const TIMEOUT_S: u32 = 900;
 struct Set {
     /// Cargo features of pocketsplat-pda besides `model`.
     features: &'static [&'static str],
-    /// The model it draws, if any.
+    /// The model it links in, if any.
     model: Option<Format>,
+    /// Whether it streams the bunny from a FAT image instead (the `stream` feature).
+    image: bool,
     /// What a scene needing this set has.
     what: &'static str,
 }
 
-const SETS: [Set; 5] = [
+const SETS: [Set; 6] = [
     Set {
         features: &[],
         model: None,
+        image: false,
         what: "no model (test pattern): runtime, raster, CRC",
     },
     Set {
         features: &[],
         model: Some(Format::TriGrid),
+        image: false,
         what: "a tri-grid, no shadows",
     },
     Set {
         features: &["shadows"],
         model: Some(Format::TriGrid),
+        image: false,
         what: "a tri-grid with one-pass and two-pass shadows (256² map)",
     },
     Set {
         features: &["qsplat"],
         model: Some(Format::QSplat),
+        image: false,
         what: "a QSplat file (tri-grid code linked too)",
     },
     Set {
         features: &["qsplat", "shadows"],
         model: Some(Format::TriGrid),
+        image: false,
         what: "both formats and shadows, drawing a tri-grid",
+    },
+    Set {
+        features: &["stream"],
+        model: None,
+        image: true,
+        what: "a tri-grid streamed from a FAT image (SD card) through a 64 KB block cache",
     },
 ];
 
@@ -82,10 +98,20 @@ fn run() -> Result<()> {
             ),
             None => None,
         };
+        let image = if set.image {
+            let bunny =
+                baked_bunny_as(Format::TriGrid)?.context("the bunny is not in ../shared/models")?;
+            let dir = target_dir().join("models/sd-bunny-sizes");
+            std::fs::create_dir_all(&dir)?;
+            Some(make_image(&dir, &std::fs::read(&bunny)?, "BUNNY.TG"))
+        } else {
+            None
+        };
         let fw = Firmware {
             target: TARGET,
             features: set.features,
             model: model.as_deref(),
+            image: image.as_deref(),
         };
         let elf = fw.build()?;
         let run = fw.run_for(&elf, None, TIMEOUT_S)?;
@@ -107,11 +133,15 @@ fn run() -> Result<()> {
             kb(m.flash),
             kb(m.ram),
             kb(stack),
-            model.as_deref().map_or("–".to_owned(), |p: &Path| format!(
-                "{} ({})",
-                kb(m.psram),
-                p.file_name().unwrap_or_default().to_string_lossy()
-            )),
+            match (model.as_deref(), set.image) {
+                (Some(p), _) => format!(
+                    "{} ({})",
+                    kb(m.psram),
+                    p.file_name().unwrap_or_default().to_string_lossy()
+                ),
+                (None, true) => "– (reads the SD image)".to_owned(),
+                (None, false) => "–".to_owned(),
+            },
         );
     }
     Ok(())
