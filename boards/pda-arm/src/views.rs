@@ -545,31 +545,55 @@ pub fn render_view(
             .table
             .update(&[model.material()], light, camera::scale(cam.forward, -1.0));
 
+    #[cfg(feature = "shadows")]
+    let shadow = &mut *targets.shadow;
+    let stats = draw_shaded(
+        targets.color,
+        targets.depth,
+        targets.table,
+        KERNEL,
+        &mut mark,
+        |sink| match &frame {
+            Frame::TriGrid(grid, f) => render_tg(grid, f, sink),
+            #[cfg(feature = "shadows")]
+            Frame::TriGridShadowed(grid, f, light, mode) => {
+                let mut map = ShadowMap::new(shadow, SHADOW_MAP_SIZE);
+                render_tg_shadowed(grid, f, light, &mut map, *mode, sink)
+            }
+            #[cfg(feature = "qsplat")]
+            Frame::QSplat(file, f) => render_qs_colored(file, f, sink),
+        },
+    );
+    Ok(Drawn {
+        stats,
+        table_rebuilt,
+    })
+}
+
+/// The steps of a frame after its table: [`Phase::Clear`] (colour and depth), [`Phase::Traverse`]
+/// (`traverse` into a raster shading through `table` with `kernel`), [`Phase::End`]. One code path
+/// for every format and for scene packs ([`crate::scene`]), whatever their table's slot count `M`.
+pub(crate) fn draw_shaded<const M: usize, R>(
+    color: &mut [[u16; WIDTH]; HEIGHT],
+    depth: &mut [[u16; WIDTH]; HEIGHT],
+    table: &ShadingTable<M>,
+    kernel: Kernel,
+    mark: &mut impl FnMut(Phase),
+    traverse: impl FnOnce(&mut ShadedRaster<'_, '_, '_, WIDTH, HEIGHT, M>) -> R,
+) -> R {
     mark(Phase::Clear);
-    let mut fb = Framebuffer::new(targets.color, targets.depth);
+    let mut fb = Framebuffer::new(color, depth);
     fb.clear(0);
 
     mark(Phase::Traverse);
     let mut sink = ShadedRaster {
         fb: &mut fb,
-        table: targets.table,
-        kernel: KERNEL,
+        table,
+        kernel,
     };
-    let stats = match &frame {
-        Frame::TriGrid(grid, f) => render_tg(grid, f, &mut sink),
-        #[cfg(feature = "shadows")]
-        Frame::TriGridShadowed(grid, f, light, mode) => {
-            let mut map = ShadowMap::new(targets.shadow, SHADOW_MAP_SIZE);
-            render_tg_shadowed(grid, f, light, &mut map, *mode, &mut sink)
-        }
-        #[cfg(feature = "qsplat")]
-        Frame::QSplat(file, f) => render_qs_colored(file, f, &mut sink),
-    };
+    let drawn = traverse(&mut sink);
     mark(Phase::End);
-    Ok(Drawn {
-        stats,
-        table_rebuilt,
-    })
+    drawn
 }
 
 /// A frame set up for its model's traversal: the format's per-frame integer tables.
