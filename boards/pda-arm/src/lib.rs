@@ -9,6 +9,8 @@
 //!   feature, a QSplat file, told apart by its magic) at several cutoffs (and, for a tri-grid with
 //!   the `shadows` feature, with one-pass and two-pass shadows), the frames the firmware renders when
 //!   a baked model is linked in, and the line it prints per frame.
+//! - `scene` (feature `scene`): the named views of a resident scene pack (`.pack`, told apart by
+//!   its magic) with the pack's light and shadows at a few cutoffs, as the simulator draws them.
 //! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
 //!   background), drawn when the firmware is built without a model.
 //!
@@ -24,6 +26,8 @@
 // Per-pixel work is integer only, as on the FPU-less device (DESIGN.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
+#[cfg(feature = "scene")]
+pub mod scene;
 pub mod views;
 
 pub use views::{

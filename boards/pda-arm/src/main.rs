@@ -55,11 +55,27 @@ mod firmware {
             [0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE];
         #[cfg(feature = "shadows")]
         static mut LIGHT: LightFrame = LightFrame::UNSET;
+        // A scene's tables: eight slots and the pack's map, beside the single model's (which a pack
+        // leaves unused, as a model leaves these).
+        #[cfg(all(feature = "model", feature = "scene"))]
+        static mut SCENE_TABLE: pocketsplat_pda::scene::SceneTable = ShadingTable::new();
+        #[cfg(all(feature = "model", feature = "scene"))]
+        static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
 
         selftest();
         memory::paint_stack();
         let psram_bytes = memory::check_psram();
 
+        #[cfg(all(feature = "model", feature = "scene"))]
+        if pocketsplat_pda::scene::is_pack(&model::MODEL) {
+            render_pack(pocketsplat_pda::scene::SceneTargets {
+                color: COLOR,
+                depth: DEPTH,
+                table: SCENE_TABLE,
+                shadow: SCENE_SHADOW,
+            });
+            report_memory(psram_bytes);
+        }
         #[cfg(feature = "model")]
         render_model(Targets {
             color: COLOR,
@@ -78,11 +94,61 @@ mod firmware {
             render_pattern(COLOR);
         }
 
+        report_memory(psram_bytes)
+    }
+
+    /// Shadow-map depths of a scene's map ([`pocketsplat_pda::scene::SCENE_MAP_SIZE`]²).
+    #[cfg(all(feature = "model", feature = "scene"))]
+    const SCENE_MAP_PIXELS: usize =
+        pocketsplat_pda::scene::SCENE_MAP_SIZE * pocketsplat_pda::scene::SCENE_MAP_SIZE;
+
+    /// Prints the memory report and ends the run with success.
+    fn report_memory(psram_bytes: usize) -> ! {
         hprintln!("ram_bytes {}", memory::ram_bytes());
         hprintln!("stack_bytes {}", memory::stack_peak_bytes());
         hprintln!("flash_bytes {}", memory::flash_bytes());
         hprintln!("psram_bytes {}", psram_bytes);
         exit(debug::EXIT_SUCCESS)
+    }
+
+    /// The named views of the linked-in scene pack at each cutoff, one line per frame, after a line
+    /// on the scene and the RAM its frames need.
+    #[cfg(all(feature = "model", feature = "scene"))]
+    fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
+        use pocketsplat_core::scene::{ram_budget, Pack, Scene};
+        use pocketsplat_core::tg::Verify;
+        use pocketsplat_pda::scene::{render_scene_view, scene_frame_specs};
+
+        let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+        let pack = match Pack::open(bytes) {
+            Ok(pack) => pack,
+            Err(e) => fail(format_args!("pack: {e}")),
+        };
+        let scene = match Scene::open(pack, Verify::Structure) {
+            Ok(scene) => scene,
+            Err(e) => fail(format_args!("scene: {e}")),
+        };
+        let p = scene.pack();
+        let shadows = if cfg!(feature = "shadows") {
+            p.shadows()
+        } else {
+            pocketsplat_core::scene::PackShadows::Off
+        };
+        hprintln!(
+            "pack bytes {} objects {} slots {} views {} map {} budget_bytes {}",
+            bytes.len(),
+            scene.len(),
+            p.slot_count(),
+            p.view_count(),
+            p.shadow_map_size(),
+            ram_budget(p, shadows, p.shadow_map_size()).total()
+        );
+        for spec in scene_frame_specs(&scene) {
+            match render_scene_view(&scene, spec, &mut targets, marks::hit) {
+                Ok(report) => hprintln!("{}", report),
+                Err(e) => fail(format_args!("frame {spec:?}: {e}")),
+            }
+        }
     }
 
     /// The standard views of the linked-in model, one line per frame.
