@@ -129,3 +129,50 @@ fn firmware_scene_frames_are_the_simulators_frames() {
         );
     }
 }
+
+/// What coarser cutoffs cost in image quality at the `std` view, one-pass shadows: PSNR of the
+/// firmware's 2 px and 4 px frames against its 1 px frame (the scene has no float reference render
+/// yet, so the 1 px frame stands in for it). Printed for the figures; asserted only to fall
+/// as the cutoff grows.
+#[test]
+fn coarser_cutoffs_lose_psnr_against_1_px_at_std() {
+    use pocketsplat_core::shade::rgb565_to_rgb888;
+    use pocketsplat_pda::scene::SceneFrameSpec;
+    use pocketsplat_sim::metrics::psnr_rgb8;
+
+    let Some(pack_path) = big_pack() else {
+        return;
+    };
+    let bytes = std::fs::read(&pack_path).unwrap();
+    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    let std_view = (0..scene.pack().view_count())
+        .find(|&v| scene.pack().view(v).is_some_and(|(n, _)| n == "std"))
+        .expect("the Big Scene has a `std` view");
+    let mut host = HostSceneFrames::new();
+    let mut frame = |cutoff_px| -> Vec<[u8; 3]> {
+        host.render(
+            &scene,
+            SceneFrameSpec {
+                view: std_view,
+                cutoff_px,
+            },
+        )
+        .unwrap();
+        host.color()
+            .as_flattened()
+            .iter()
+            .map(|&p| rgb565_to_rgb888(p))
+            .collect()
+    };
+    let fine = frame(1);
+    let psnr: Vec<(u8, f64)> = SCENE_CUTOFFS_PX[1..]
+        .iter()
+        .map(|&c| (c, psnr_rgb8(&fine, &frame(c))))
+        .collect();
+    for (c, p) in &psnr {
+        eprintln!("std {c} px one-pass: PSNR {p:.2} dB against 1 px");
+    }
+    for w in psnr.windows(2) {
+        assert!(w[0].1 > w[1].1, "PSNR against 1 px: {psnr:?}");
+    }
+}
