@@ -186,3 +186,47 @@ pub fn render_scene_view<'p>(
         table_rebuilt,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::FrameLine;
+
+    #[test]
+    fn a_scene_frame_line_reads_back_as_a_frame_line() {
+        let report = SceneFrameReport {
+            view_name: "top",
+            spec: SceneFrameSpec {
+                view: 2,
+                cutoff_px: 4,
+            },
+            shadows: Shadows::OnePass,
+            crc: 0x0012_3456,
+            stats: Stats {
+                splats: 7,
+                nodes_visited: 9,
+                ..Stats::default()
+            },
+            table_rebuilt: false,
+        };
+        let line = report.to_string();
+        assert_eq!(
+            line,
+            "frame top cutoff 4 shadows one-pass crc 0x00123456 splats 7 nodes 9"
+        );
+        let parsed = FrameLine::parse(&line).unwrap();
+        assert_eq!(
+            (parsed.view, parsed.cutoff_px, parsed.shadows, parsed.crc),
+            ("top", 4, Shadows::OnePass, 0x0012_3456)
+        );
+        assert_eq!((parsed.splats, parsed.nodes), (7, 9));
+    }
+
+    #[test]
+    fn the_magic_tells_a_pack() {
+        assert!(is_pack(b"PSPK\x01\x00"));
+        assert!(!is_pack(b"PSP"));
+        assert!(!is_pack(b"QSplat11"));
+        assert!(pocketsplat_core::scene::Pack::open(b"PSPK junk").is_err());
+    }
+}
