@@ -397,7 +397,8 @@ mod firmware {
 
 /// Host twin: prints the lines the firmware prints. With no argument, frame 0 of the test pattern;
 /// with the path of a baked `.tg` (or, with `qsplat`, `.qs`) file, the standard views of that model
-/// (as the firmware built with it as `POCKETSPLAT_PDA_MODEL` does).
+/// (as the firmware built with it as `POCKETSPLAT_PDA_MODEL` does); with `scene`, a `.pack`'s named
+/// views.
 #[cfg(not(all(target_arch = "arm", target_os = "none")))]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     use pocketsplat_core::shade::ShadingTable;
@@ -425,6 +426,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     };
     let bytes = std::fs::read(&path)?;
+    #[cfg(feature = "scene")]
+    if pocketsplat_pda::scene::is_pack(&bytes) {
+        use pocketsplat_pda::scene::{
+            render_scene_view, scene_frame_specs, SceneTable, SceneTargets, SCENE_MAP_SIZE,
+        };
+        let pack = pocketsplat_core::scene::Pack::open(&bytes)?;
+        let scene = pocketsplat_core::scene::Scene::open(pack, Verify::Structure)?;
+        let (mut depth, mut table) = (rows(), Box::new(SceneTable::new()));
+        let mut shadow = vec![0u16; SCENE_MAP_SIZE * SCENE_MAP_SIZE];
+        let mut targets = SceneTargets {
+            color: &mut color,
+            depth: &mut depth,
+            table: &mut table,
+            shadow: &mut shadow,
+        };
+        for spec in scene_frame_specs(&scene) {
+            println!("{}", render_scene_view(&scene, spec, &mut targets, |_| {})?);
+        }
+        return Ok(());
+    }
     let model = Model::open(&bytes, Verify::Structure)?;
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]
