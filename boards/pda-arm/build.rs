@@ -69,6 +69,12 @@ fn model() {
             path.display()
         );
     }
+    if starts_with(&path, b"PSPK") && env::var_os("CARGO_FEATURE_SCENE").is_none() {
+        panic!(
+            "{VAR}={} is a scene pack: build with `--features model,scene,shadows`",
+            path.display()
+        );
+    }
     println!(
         "cargo:rustc-env=POCKETSPLAT_PDA_MODEL_FILE={}",
         path.display()
@@ -78,11 +84,17 @@ fn model() {
 /// Whether the file at `path` starts like a QSplat file (`QSplat`, as
 /// `pocketsplat_pda::QSPLAT_MAGIC_PREFIX`); an unreadable file is left for `include_bytes!` to report.
 fn is_qsplat(path: &std::path::Path) -> bool {
+    starts_with(path, b"QSplat")
+}
+
+/// Whether the file at `path` starts with `magic` (`PSPK` for a scene pack, as
+/// `pocketsplat_core::scene::MAGIC`).
+fn starts_with(path: &std::path::Path, magic: &[u8]) -> bool {
     use std::io::Read;
-    let mut magic = [0u8; 6];
+    let mut head = vec![0u8; magic.len()];
     std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok_and(|()| &magic == b"QSplat")
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| head == magic)
 }
 
 /// Resolves `POCKETSPLAT_PDA_IMAGE` (relative paths from the workspace root) into the absolute path

@@ -17,9 +17,14 @@ use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::View;
 use pocketsplat_core::qs::write::QsBakeOptions;
 use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::scene::Scene;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
+use pocketsplat_pda::scene::{
+    render_scene_view, scene_frame_specs, SceneFrameReport, SceneFrameSpec, SceneTable,
+    SceneTargets, SCENE_MAP_SIZE,
+};
 use pocketsplat_pda::{
     render_standard_view, render_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase,
     Shadows, Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
@@ -446,6 +451,142 @@ pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
             .with_context(|| format!("writing {}", out.display()))?;
     }
     Ok(Some(out))
+}
+
+/// The scans the Big Scene (`boards/sim/scenes/big.toml`) places.
+pub const BIG_SCENE_SCANS: [&str; 3] = [
+    "bun_zipper.ply.gz",
+    "dragon_vrip.ply.gz",
+    "happy_vrip_res3.ply.gz",
+];
+
+/// The Big Scene baked as `pocketsplat bake boards/sim/scenes/big.toml` bakes it, into
+/// `target/arm/models/big.pack`, or `None` off CI when a scan is missing ([`model`]).
+///
+/// Baked afresh every time, so the pack always matches the current baker; written only when its
+/// bytes change, so that cargo does not relink the firmware that includes it.
+///
+/// # Errors
+/// When the scene or a scan cannot be read or baked, or the file cannot be written.
+pub fn baked_big_scene() -> Result<Option<PathBuf>> {
+    static BAKE: Mutex<()> = Mutex::new(());
+    for scan in BIG_SCENE_SCANS {
+        if model(scan).is_none() {
+            return Ok(None);
+        }
+    }
+    let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
+    let toml = workspace_root().join("boards/sim/scenes/big.toml");
+    let baked = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
+        .with_context(|| format!("baking {}", toml.display()))?;
+    let out = target_dir().join("models/big.pack");
+    if fs::read(&out).ok().as_deref() != Some(&baked.bytes[..]) {
+        fs::create_dir_all(out.parent().expect("a parent"))?;
+        pocketsplat_sim::fsutil::write_atomic(&out, &baked.bytes)
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    Ok(Some(out))
+}
+
+/// The host's side of a scene comparison: the buffers the firmware keeps in statics for a pack, on
+/// the heap, and the library call the firmware makes to fill them.
+pub struct HostSceneFrames {
+    color: Box<[[u16; WIDTH]; HEIGHT]>,
+    depth: Box<[[u16; WIDTH]; HEIGHT]>,
+    table: Box<SceneTable>,
+    shadow: Vec<u16>,
+}
+
+impl Default for HostSceneFrames {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl HostSceneFrames {
+    /// Cleared buffers, the shadow map as large as the firmware's ([`SCENE_MAP_SIZE`]²).
+    pub fn new() -> Self {
+        let rows = || {
+            vec![[0u16; WIDTH]; HEIGHT]
+                .into_boxed_slice()
+                .try_into()
+                .expect("HEIGHT rows")
+        };
+        HostSceneFrames {
+            color: rows(),
+            depth: rows(),
+            table: Box::new(SceneTable::new()),
+            shadow: vec![0; SCENE_MAP_SIZE * SCENE_MAP_SIZE],
+        }
+    }
+
+    /// Renders frame `spec` of `scene` as the firmware does.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up.
+    pub fn render<'p>(
+        &mut self,
+        scene: &Scene<'p>,
+        spec: SceneFrameSpec,
+    ) -> Result<SceneFrameReport<'p>> {
+        let mut targets = SceneTargets {
+            color: &mut self.color,
+            depth: &mut self.depth,
+            table: &mut self.table,
+            shadow: &mut self.shadow,
+        };
+        Ok(render_scene_view(scene, spec, &mut targets, |_| {})?)
+    }
+
+    /// The colour rows of the last frame.
+    pub fn color(&self) -> &[[u16; WIDTH]; HEIGHT] {
+        &self.color
+    }
+}
+
+/// Checks the firmware's frame lines against every frame of `scene` ([`scene_frame_specs`], in
+/// order) as the host renders them; returns the host's reports.
+///
+/// # Errors
+/// Naming the first frame that differs (view, cutoff, both lines), or missing or extra frames.
+pub fn compare_scene_frames<'p>(
+    stdout: &str,
+    scene: &Scene<'p>,
+    host: &mut HostSceneFrames,
+) -> Result<Vec<SceneFrameReport<'p>>> {
+    let lines: Vec<&str> = stdout
+        .lines()
+        .filter(|l| FrameLine::parse(l).is_some())
+        .collect();
+    let specs: Vec<SceneFrameSpec> = scene_frame_specs(scene).collect();
+    let mut reports = Vec::with_capacity(specs.len());
+    for (i, &spec) in specs.iter().enumerate() {
+        let report = host.render(scene, spec)?;
+        let want = report.to_string();
+        let Some(got) = lines.get(i) else {
+            bail!(
+                "frame {i} ({} cutoff {} px): the firmware printed only {} of {} frame lines",
+                report.view_name,
+                spec.cutoff_px,
+                lines.len(),
+                specs.len()
+            );
+        };
+        ensure!(
+            *got == want,
+            "frame {i} ({} cutoff {} px) differs:\n  ARM:  {got}\n  host: {want}",
+            report.view_name,
+            spec.cutoff_px
+        );
+        reports.push(report);
+    }
+    ensure!(
+        lines.len() == specs.len(),
+        "the firmware printed {} frame lines, {} expected",
+        lines.len(),
+        specs.len()
+    );
+    Ok(reports)
 }
 
 /// The instruction-counting TCG plugin (`tests/qemu-plugin/icount.c`), built with the C compiler.

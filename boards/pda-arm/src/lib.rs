@@ -11,6 +11,8 @@
 //!   a baked model is linked in, and the line it prints per frame.
 //! - [`stream`] (`stream` feature): the bunny streamed from a FAT image through a 64 KB block cache,
 //!   the frames drawn by the same code as a resident model's ([`render_stream_view`]).
+//! - `scene` (feature `scene`): the named views of a resident scene pack (`.pack`, told apart by
+//!   its magic) with the pack's light and shadows at a few cutoffs, as the simulator draws them.
 //! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
 //!   background), drawn when the firmware is built without a model.
 //!
@@ -26,6 +28,8 @@
 // Per-pixel work is integer only, as on the FPU-less device (DESIGN.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
+#[cfg(feature = "scene")]
+pub mod scene;
 #[cfg(feature = "stream")]
 pub mod stream;
 pub mod views;

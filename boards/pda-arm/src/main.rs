@@ -64,11 +64,27 @@ mod firmware {
         #[cfg(feature = "stream")]
         static mut STREAM: pocketsplat_pda::stream::StreamTables =
             pocketsplat_pda::stream::StreamTables::EMPTY;
+        // A scene's tables: eight slots and the pack's map, beside the single model's (which a pack
+        // leaves unused, as a model leaves these).
+        #[cfg(all(feature = "model", feature = "scene"))]
+        static mut SCENE_TABLE: pocketsplat_pda::scene::SceneTable = ShadingTable::new();
+        #[cfg(all(feature = "model", feature = "scene"))]
+        static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
 
         selftest();
         memory::paint_stack();
         let psram_bytes = memory::check_psram();
 
+        #[cfg(all(feature = "model", feature = "scene"))]
+        if pocketsplat_pda::scene::is_pack(&model::MODEL) {
+            render_pack(pocketsplat_pda::scene::SceneTargets {
+                color: COLOR,
+                depth: DEPTH,
+                table: SCENE_TABLE,
+                shadow: SCENE_SHADOW,
+            });
+            report_memory(psram_bytes);
+        }
         #[cfg(any(feature = "model", feature = "stream"))]
         let targets = Targets {
             color: COLOR,
@@ -91,11 +107,61 @@ mod firmware {
             render_pattern(COLOR);
         }
 
+        report_memory(psram_bytes)
+    }
+
+    /// Shadow-map depths of a scene's map ([`pocketsplat_pda::scene::SCENE_MAP_SIZE`]²).
+    #[cfg(all(feature = "model", feature = "scene"))]
+    const SCENE_MAP_PIXELS: usize =
+        pocketsplat_pda::scene::SCENE_MAP_SIZE * pocketsplat_pda::scene::SCENE_MAP_SIZE;
+
+    /// Prints the memory report and ends the run with success.
+    fn report_memory(psram_bytes: usize) -> ! {
         hprintln!("ram_bytes {}", memory::ram_bytes());
         hprintln!("stack_bytes {}", memory::stack_peak_bytes());
         hprintln!("flash_bytes {}", memory::flash_bytes());
         hprintln!("psram_bytes {}", psram_bytes);
         exit(debug::EXIT_SUCCESS)
+    }
+
+    /// The named views of the linked-in scene pack at each cutoff, one line per frame, after a line
+    /// on the scene and the RAM its frames need.
+    #[cfg(all(feature = "model", feature = "scene"))]
+    fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
+        use pocketsplat_core::scene::{ram_budget, Pack, Scene};
+        use pocketsplat_core::tg::Verify;
+        use pocketsplat_pda::scene::{render_scene_view, scene_frame_specs};
+
+        let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+        let pack = match Pack::open(bytes) {
+            Ok(pack) => pack,
+            Err(e) => fail(format_args!("pack: {e}")),
+        };
+        let scene = match Scene::open(pack, Verify::Structure) {
+            Ok(scene) => scene,
+            Err(e) => fail(format_args!("scene: {e}")),
+        };
+        let p = scene.pack();
+        let shadows = if cfg!(feature = "shadows") {
+            p.shadows()
+        } else {
+            pocketsplat_core::scene::PackShadows::Off
+        };
+        hprintln!(
+            "pack bytes {} objects {} slots {} views {} map {} budget_bytes {}",
+            bytes.len(),
+            scene.len(),
+            p.slot_count(),
+            p.view_count(),
+            p.shadow_map_size(),
+            ram_budget(p, shadows, p.shadow_map_size()).total()
+        );
+        for spec in scene_frame_specs(&scene) {
+            match render_scene_view(&scene, spec, &mut targets, marks::hit) {
+                Ok(report) => hprintln!("{}", report),
+                Err(e) => fail(format_args!("frame {spec:?}: {e}")),
+            }
+        }
     }
 
     /// The standard views of the linked-in model, one line per frame.
@@ -494,7 +560,8 @@ mod firmware {
 
 /// Host twin: prints the lines the firmware prints. With no argument, frame 0 of the test pattern;
 /// with the path of a baked `.tg` (or, with `qsplat`, `.qs`) file, the standard views of that model
-/// (as the firmware built with it as `POCKETSPLAT_PDA_MODEL` does).
+/// (as the firmware built with it as `POCKETSPLAT_PDA_MODEL` does); with `scene`, a `.pack`'s named
+/// views.
 #[cfg(not(all(target_arch = "arm", target_os = "none")))]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     use pocketsplat_core::shade::ShadingTable;
@@ -522,6 +589,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     };
     let bytes = std::fs::read(&path)?;
+    #[cfg(feature = "scene")]
+    if pocketsplat_pda::scene::is_pack(&bytes) {
+        use pocketsplat_pda::scene::{
+            render_scene_view, scene_frame_specs, SceneTable, SceneTargets, SCENE_MAP_SIZE,
+        };
+        let pack = pocketsplat_core::scene::Pack::open(&bytes)?;
+        let scene = pocketsplat_core::scene::Scene::open(pack, Verify::Structure)?;
+        let (mut depth, mut table) = (rows(), Box::new(SceneTable::new()));
+        let mut shadow = vec![0u16; SCENE_MAP_SIZE * SCENE_MAP_SIZE];
+        let mut targets = SceneTargets {
+            color: &mut color,
+            depth: &mut depth,
+            table: &mut table,
+            shadow: &mut shadow,
+        };
+        for spec in scene_frame_specs(&scene) {
+            println!("{}", render_scene_view(&scene, spec, &mut targets, |_| {})?);
+        }
+        return Ok(());
+    }
     let model = Model::open(&bytes, Verify::Structure)?;
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]

@@ -22,7 +22,7 @@ use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::stream::torture::Flaky;
 use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
 
-use crate::{render_stream_view, Drawn, Phase, Targets, ViewError, HEIGHT, WIDTH};
+use crate::{render_stream_view, Drawn, Phase, Targets, ViewError, WIDTH};
 
 /// Bytes of block cache (RAM, a static on the device).
 pub const CACHE_BYTES: usize = 64 * 1024;
@@ -408,6 +408,7 @@ mod tests {
 
     #[test]
     fn the_error_marker_is_a_red_square_in_the_top_right_corner_and_nothing_else() {
+        use crate::HEIGHT;
         let mut color = std::vec![[0u16; WIDTH]; HEIGHT];
         let mut depth = std::vec![[u16::MAX; WIDTH]; HEIGHT];
         let (c, d): (&mut [[u16; WIDTH]; HEIGHT], &mut [[u16; WIDTH]; HEIGHT]) = (

@@ -639,23 +639,38 @@ impl Canvas<'_> {
             .table
             .update(&[material], light, camera::scale(cam.forward, -1.0));
 
-        mark(Phase::Clear);
-        let mut fb = Framebuffer::new(self.color, self.depth);
-        fb.clear(0);
-
-        mark(Phase::Traverse);
-        let mut sink = ShadedRaster {
-            fb: &mut fb,
-            table: self.table,
-            kernel: KERNEL,
-        };
-        let stats = traverse(&mut sink);
-        mark(Phase::End);
+        let stats = draw_shaded(self.color, self.depth, self.table, KERNEL, mark, traverse);
         Drawn {
             stats,
             table_rebuilt,
         }
     }
+}
+
+/// The steps of a frame after its table: [`Phase::Clear`] (colour and depth), [`Phase::Traverse`]
+/// (`traverse` into a raster shading through `table` with `kernel`), [`Phase::End`]. One code path
+/// for every format and for scene packs ([`crate::scene`]), whatever their table's slot count `M`.
+pub(crate) fn draw_shaded<const M: usize, R>(
+    color: &mut [[u16; WIDTH]; HEIGHT],
+    depth: &mut [[u16; WIDTH]; HEIGHT],
+    table: &ShadingTable<M>,
+    kernel: Kernel,
+    mark: &mut impl FnMut(Phase),
+    traverse: impl FnOnce(&mut ShadedRaster<'_, '_, '_, WIDTH, HEIGHT, M>) -> R,
+) -> R {
+    mark(Phase::Clear);
+    let mut fb = Framebuffer::new(color, depth);
+    fb.clear(0);
+
+    mark(Phase::Traverse);
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table,
+        kernel,
+    };
+    let drawn = traverse(&mut sink);
+    mark(Phase::End);
+    drawn
 }
 
 /// A frame set up for its model's traversal: the format's per-frame integer tables.

@@ -4,6 +4,7 @@
 //! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg|FILE.qs]...
 //!     [--format tg|qsplat|both] [--target TRIPLE]... [--no-shadows] [--json]
 //!     [--profile VIEW:CUTOFF:MODE]
+//! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--target TRIPLE]...
 //! ```
 //!
 //! Builds the firmware with each model linked into PSRAM (default: the bunny, baked into
@@ -19,6 +20,12 @@
 //! instruction per cycle. The unshadowed tri-grid frames come from the build without shadows (what
 //! firmware for a scene without shadows runs); the shadowed ones from the shadows build. Then each
 //! build's flash, RAM, stack and PSRAM, and, with both formats, the unshadowed frames side by side.
+//!
+//! `--big-scene` benchmarks the Big Scene instead (`boards/sim/scenes/big.toml` baked into
+//! `target/arm/models/big.pack`, firmware with `scene` and `shadows`): every named view of the pack
+//! at each cutoff with its one-pass shadows, CRCs checked against the host, instructions per frame
+//! by phase, and each frame's PSNR against the same view at 1 px (the scene has no float reference
+//! render yet).
 //!
 //! `--json` prints one JSON object per frame instead. `--profile std:1:off` also profiles that
 //! frame's traversal by function, for each model (needs `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
@@ -50,10 +57,12 @@ struct Args {
     shadows: bool,
     json: bool,
     profile: Option<FrameSpec>,
+    big_scene: bool,
 }
 
 const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|qsplat|both] \
-                     [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE]";
+                     [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE] | \
+                     --big-scene [--target TRIPLE]...";
 
 fn parse_args() -> Result<Args> {
     let mut args = Args {
@@ -63,6 +72,7 @@ fn parse_args() -> Result<Args> {
         shadows: true,
         json: false,
         profile: None,
+        big_scene: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -84,6 +94,7 @@ fn parse_args() -> Result<Args> {
             "--target" => args.targets.push(value()?),
             "--no-shadows" => args.shadows = false,
             "--json" => args.json = true,
+            "--big-scene" => args.big_scene = true,
             "--profile" => args.profile = Some(parse_frame(&value()?)?),
             "-h" | "--help" => {
                 println!("{USAGE}");
@@ -483,6 +494,9 @@ fn run() -> Result<()> {
         have_qemu(),
         "qemu-system-arm is needed (apt-get install qemu-system-arm)"
     );
+    if args.big_scene {
+        return big_scene(&args.targets);
+    }
     let paths: Vec<PathBuf> = if args.models.is_empty() {
         args.formats
             .iter()
@@ -581,6 +595,109 @@ fn model_name(path: &Path) -> String {
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     )
+}
+
+/// `--big-scene`: the Big Scene's frames on each target, with their cost and PSNR against 1 px.
+fn big_scene(targets: &[String]) -> Result<()> {
+    use pocketsplat_core::scene::{Pack, Scene};
+    use pocketsplat_core::shade::rgb565_to_rgb888;
+    use pocketsplat_pda::scene::scene_frame_specs;
+    use pocketsplat_sim::metrics::psnr_rgb8;
+    use pocketsplat_tests::arm::{baked_big_scene, compare_scene_frames, HostSceneFrames};
+
+    let path = baked_big_scene()?.context("a scan is missing (set POCKETSPLAT_MODELS)")?;
+    let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
+    let scene = Scene::open(
+        Pack::open(&bytes).map_err(anyhow::Error::msg)?,
+        Verify::Full,
+    )?;
+    // PSNR of each frame against its view at the finest cutoff (the first of each view).
+    let mut host = HostSceneFrames::new();
+    let rgb = |h: &HostSceneFrames| -> Vec<[u8; 3]> {
+        h.color()
+            .as_flattened()
+            .iter()
+            .map(|&p| rgb565_to_rgb888(p))
+            .collect()
+    };
+    let mut psnr = Vec::new();
+    let mut fine = Vec::new();
+    for spec in scene_frame_specs(&scene) {
+        host.render(&scene, spec)?;
+        if spec.cutoff_px == pocketsplat_pda::scene::SCENE_CUTOFFS_PX[0] {
+            fine = rgb(&host);
+        }
+        psnr.push(psnr_rgb8(&fine, &rgb(&host)));
+    }
+    let counter = Counter::build()?;
+    for target in targets {
+        let fw = Firmware {
+            target,
+            features: &["scene", "shadows"],
+            model: Some(&path),
+            image: None,
+        };
+        eprintln!("building and running {} …", fw.name());
+        let elf = fw.build()?;
+        let run = fw.run_for(&elf, Some(&counter), TIMEOUT_S)?;
+        ensure!(
+            run.output.status.success(),
+            "{} failed:\n{}",
+            fw.name(),
+            run.transcript()
+        );
+        let reports = compare_scene_frames(&run.stdout(), &scene, &mut host)
+            .with_context(|| format!("{}: frames against the host", fw.name()))?;
+        let costs = frame_costs(run.marks.as_ref().context("no counter output")?)?;
+        ensure!(
+            costs.len() == reports.len(),
+            "one counted frame per frame line"
+        );
+        let (memory, stack) = check_memory(&run, &elf)?;
+        println!(
+            "\n{target}, Big Scene ({} B pack): instructions per frame (exact, QEMU TCG plugin); \
+             PSNR against the view at 1 px",
+            bytes.len()
+        );
+        println!(
+            "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8}",
+            "view",
+            "cutoff",
+            "shadows",
+            "splats",
+            "nodes",
+            "instr/frame",
+            "setup",
+            "table",
+            "clear",
+            "traverse",
+            "PSNR dB"
+        );
+        for ((r, c), p) in reports.iter().zip(&costs).zip(&psnr) {
+            println!(
+                "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8.2}",
+                r.view_name,
+                r.spec.cutoff_px,
+                r.shadows.name(),
+                r.stats.splats,
+                r.stats.nodes_visited,
+                c.frame(),
+                c.setup,
+                c.table,
+                c.clear,
+                c.traverse,
+                p
+            );
+        }
+        println!(
+            "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B",
+            fw.name(),
+            memory.flash,
+            memory.ram,
+            memory.psram
+        );
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {

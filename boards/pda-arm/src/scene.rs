@@ -1,0 +1,232 @@
+//! Scene packs (feature `scene`): the named views of a resident `.pack` (several placed tri-grids,
+//! their materials, a light, shadows), drawn as `pocketsplat-sim`'s `render_pack` draws them, so
+//! that the firmware's frames, the host's and the simulator's can only be the same frame.
+//!
+//! A frame is: the pack's options ([`SceneOptions::of`]: its light, its shadows, its map size) at the
+//! spec's cutoff, the orbit camera of the pack's view with the pack's field of view
+//! ([`Scene::camera`]), [`Scene::update_table`] (one slot per material of the scene), then clear
+//! and traverse through the same steps as a single model ([`crate::views`]' `draw_shaded`), the
+//! traversal being the core's [`render_scene`]. Shadows are the pack's when the build has the
+//! `shadows` feature, none otherwise (the frame line says which).
+//!
+//! Per-object setup (each object's tri-grid frame and light frame) runs inside
+//! [`Phase::Traverse`], one object at a time, as [`render_scene`] does it; [`Phase::Setup`] covers
+//! the camera and options only.
+
+use core::fmt;
+
+use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::scene::{
+    render_scene, PackShadows, Scene, SceneError, SceneOptions, MAGIC, MAX_SLOTS,
+};
+use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::splat::Stats;
+
+use crate::views::draw_shaded;
+use crate::{Phase, Shadows, HEIGHT, WIDTH};
+
+/// LOD cutoffs the firmware renders each view of a pack at, pixels.
+pub const SCENE_CUTOFFS_PX: [u8; 3] = [1, 2, 4];
+
+/// The largest shadow map side a firmware's scene may ask for, texels (the Big Scene's: 512² ×
+/// 2 bytes = 512 KB of RAM). A pack asking for more is refused per frame
+/// ([`SceneError::ShadowBuffer`]), not drawn wrongly.
+pub const SCENE_MAP_SIZE: usize = 512;
+
+/// The shading table of a scene: a slot for every material slot a pack can have
+/// ([`MAX_SLOTS`], as the simulator's `SceneTable`).
+pub type SceneTable = ShadingTable<MAX_SLOTS>;
+
+/// Whether `bytes` start like a scene pack (its magic, `PSPK`).
+pub fn is_pack(bytes: &[u8]) -> bool {
+    bytes.starts_with(&MAGIC)
+}
+
+/// Where a frame of a scene is drawn (statics on the device, the heap on the host).
+pub struct SceneTargets<'a> {
+    /// RGB565 rows.
+    pub color: &'a mut [[u16; WIDTH]; HEIGHT],
+    /// Depth rows.
+    pub depth: &'a mut [[u16; WIDTH]; HEIGHT],
+    /// The shading table, kept between frames (slots rebuilt only when their directions change).
+    pub table: &'a mut SceneTable,
+    /// Shadow-map depths: at least the pack's map side² when it has shadows (may be empty
+    /// otherwise).
+    pub shadow: &'a mut [u16],
+}
+
+/// One frame of a scene: a view of the pack and a cutoff.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SceneFrameSpec {
+    /// Index of the pack's view.
+    pub view: usize,
+    /// LOD cutoff, pixels.
+    pub cutoff_px: u8,
+}
+
+/// The frames the firmware renders of `scene`, in order: each of the pack's views at each cutoff
+/// of [`SCENE_CUTOFFS_PX`].
+pub fn scene_frame_specs(scene: &Scene<'_>) -> impl Iterator<Item = SceneFrameSpec> {
+    (0..scene.pack().view_count()).flat_map(|view| {
+        SCENE_CUTOFFS_PX
+            .iter()
+            .map(move |&cutoff_px| SceneFrameSpec { view, cutoff_px })
+    })
+}
+
+/// What a frame of a scene did: the line the firmware prints, in the form of a model's
+/// (`frame <view> cutoff <px> shadows <mode> crc 0x… splats N nodes N`, read by
+/// [`crate::FrameLine::parse`]), the view being the pack's view name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneFrameReport<'a> {
+    /// The pack's name of the view.
+    pub view_name: &'a str,
+    /// Which frame.
+    pub spec: SceneFrameSpec,
+    /// The shadows drawn.
+    pub shadows: Shadows,
+    /// CRC-32 of the colour buffer ([`Framebuffer::crc`]).
+    pub crc: u32,
+    /// All objects' counts added.
+    pub stats: Stats,
+    /// Whether a slot of the shading table was rebuilt for this frame.
+    pub table_rebuilt: bool,
+}
+
+impl fmt::Display for SceneFrameReport<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "frame {} cutoff {} shadows {} crc {:#010x} splats {} nodes {}",
+            self.view_name,
+            self.spec.cutoff_px,
+            self.shadows.name(),
+            self.crc,
+            self.stats.splats,
+            self.stats.nodes_visited
+        )
+    }
+}
+
+/// Why a frame of a scene cannot be drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SceneViewError {
+    /// The pack has no view of that index.
+    NoView(usize),
+    /// The core's scene renderer refused the frame.
+    Scene(SceneError),
+}
+
+impl core::error::Error for SceneViewError {}
+
+impl fmt::Display for SceneViewError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneViewError::NoView(v) => write!(f, "the pack has no view {v}"),
+            SceneViewError::Scene(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl From<SceneError> for SceneViewError {
+    fn from(e: SceneError) -> Self {
+        SceneViewError::Scene(e)
+    }
+}
+
+fn shadows_of(s: PackShadows) -> Shadows {
+    match s {
+        PackShadows::Off => Shadows::Off,
+        PackShadows::OnePass => Shadows::OnePass,
+        PackShadows::TwoPass => Shadows::TwoPass,
+    }
+}
+
+/// Renders frame `spec` of `scene` into `targets` and checksums it (after [`Phase::End`]). `mark` is
+/// called at the start of each [`Phase`] and at [`Phase::End`], as for a model's frame.
+///
+/// # Errors
+/// When the pack has no such view, or the frame cannot be set up ([`SceneError`]: a bad cutoff, a
+/// shadow map larger than `targets.shadow`, more slots than [`MAX_SLOTS`]).
+pub fn render_scene_view<'p>(
+    scene: &Scene<'p>,
+    spec: SceneFrameSpec,
+    targets: &mut SceneTargets<'_>,
+    mut mark: impl FnMut(Phase),
+) -> Result<SceneFrameReport<'p>, SceneViewError> {
+    mark(Phase::Setup);
+    let (view_name, view) = scene
+        .pack()
+        .view(spec.view)
+        .ok_or(SceneViewError::NoView(spec.view))?;
+    let mut opts = SceneOptions::of(scene.pack());
+    opts.cutoff_px = f32::from(spec.cutoff_px);
+    let cam = scene.camera(view);
+
+    mark(Phase::Table);
+    let table_rebuilt = scene.update_table(targets.table, &cam, opts.light_dir)?;
+
+    let shadow = &mut *targets.shadow;
+    let stats = draw_shaded(
+        targets.color,
+        targets.depth,
+        targets.table,
+        opts.kernel,
+        &mut mark,
+        |sink| render_scene(scene, &cam, &opts, shadow, sink),
+    )?;
+    Ok(SceneFrameReport {
+        view_name,
+        spec,
+        shadows: shadows_of(stats.shadows),
+        crc: Framebuffer::new(targets.color, targets.depth).crc(),
+        stats: stats.total,
+        table_rebuilt,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::FrameLine;
+
+    #[test]
+    fn a_scene_frame_line_reads_back_as_a_frame_line() {
+        let report = SceneFrameReport {
+            view_name: "top",
+            spec: SceneFrameSpec {
+                view: 2,
+                cutoff_px: 4,
+            },
+            shadows: Shadows::OnePass,
+            crc: 0x0012_3456,
+            stats: Stats {
+                splats: 7,
+                nodes_visited: 9,
+                ..Stats::default()
+            },
+            table_rebuilt: false,
+        };
+        let line = report.to_string();
+        assert_eq!(
+            line,
+            "frame top cutoff 4 shadows one-pass crc 0x00123456 splats 7 nodes 9"
+        );
+        let parsed = FrameLine::parse(&line).unwrap();
+        assert_eq!(
+            (parsed.view, parsed.cutoff_px, parsed.shadows, parsed.crc),
+            ("top", 4, Shadows::OnePass, 0x0012_3456)
+        );
+        assert_eq!((parsed.splats, parsed.nodes), (7, 9));
+    }
+
+    #[test]
+    fn the_magic_tells_a_pack() {
+        assert!(is_pack(b"PSPK\x01\x00"));
+        assert!(!is_pack(b"PSP"));
+        assert!(!is_pack(b"QSplat11"));
+        assert!(pocketsplat_core::scene::Pack::open(b"PSPK junk").is_err());
+    }
+}

@@ -1,0 +1,179 @@
+//! The Big Scene under QEMU (issue 8): `boards/sim/scenes/big.toml` baked into a pack (bunny,
+//! dragon, buddha, two generated trees on a ground plane; one-pass shadows in a 512² map) and
+//! linked into PSRAM; the firmware built with `scene` and `shadows` renders each of the pack's
+//! named views at each cutoff of `SCENE_CUTOFFS_PX` with the pack's light and shadows, and prints
+//! one CRC per frame; the host renders the same frames through the same library function
+//! (`pocketsplat_pda::scene::render_scene_view`), and every line must be identical. The host
+//! function is itself checked against the simulator's `render_pack` (what `pocketsplat render
+//! big.pack` draws).
+//!
+//! Needs `qemu-system-arm`, a C compiler (the instruction counter) and the scans: without them
+//! these tests fail under CI and are skipped, with a note, elsewhere.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use pocketsplat_core::scene::{Pack, PackShadows, Scene};
+use pocketsplat_core::tg::Verify;
+use pocketsplat_pda::scene::{scene_frame_specs, SCENE_CUTOFFS_PX};
+use pocketsplat_pda::Shadows;
+use pocketsplat_sim::render::FrameBuffers;
+use pocketsplat_sim::scene::render::{render_pack, PackSettings};
+use pocketsplat_tests::arm::{
+    baked_big_scene, check_memory, compare_scene_frames, frame_costs, have_qemu, Counter, Firmware,
+    HostSceneFrames, TARGET,
+};
+
+/// The Big Scene baked, once per test binary.
+fn big_pack() -> Option<PathBuf> {
+    static PACK: OnceLock<Option<PathBuf>> = OnceLock::new();
+    PACK.get_or_init(|| baked_big_scene().unwrap()).clone()
+}
+
+#[test]
+fn big_scene_views_on_arm_match_the_host() {
+    if !have_qemu() {
+        return;
+    }
+    let Some(pack_path) = big_pack() else {
+        return;
+    };
+    let counter = Counter::build().unwrap();
+    let fw = Firmware {
+        target: TARGET,
+        features: &["scene", "shadows"],
+        model: Some(&pack_path),
+        image: None,
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, Some(&counter)).unwrap();
+    eprintln!("{}", run.transcript());
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0"
+    );
+
+    let bytes = std::fs::read(&pack_path).unwrap();
+    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    assert_eq!(scene.pack().shadows(), PackShadows::OnePass);
+    let mut host = HostSceneFrames::new();
+    let reports = compare_scene_frames(&run.stdout(), &scene, &mut host)
+        .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));
+    assert_eq!(
+        reports.len(),
+        scene.pack().view_count() * SCENE_CUTOFFS_PX.len()
+    );
+    for r in &reports {
+        assert_eq!(r.shadows, Shadows::OnePass, "{r}");
+        assert!(r.stats.splats > 0, "{r}: draws nothing");
+    }
+
+    let (memory, stack) = check_memory(&run, &elf).unwrap();
+    eprintln!(
+        "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B (pack {} B)",
+        fw.name(),
+        memory.flash,
+        memory.ram,
+        memory.psram,
+        bytes.len()
+    );
+    assert!(memory.psram >= bytes.len() as u64, "the pack is in PSRAM");
+
+    let costs = frame_costs(run.marks.as_ref().expect("counted")).unwrap();
+    assert_eq!(
+        costs.len(),
+        reports.len(),
+        "one counted frame per frame line"
+    );
+    for (r, c) in reports.iter().zip(&costs) {
+        eprintln!(
+            "{:5} {} px {}: {:>11} instructions (setup {}, table {}, clear {}, traverse {}), \
+             {:>7} splats, {:>7} nodes",
+            r.view_name,
+            r.spec.cutoff_px,
+            r.shadows.name(),
+            c.frame(),
+            c.setup,
+            c.table,
+            c.clear,
+            c.traverse,
+            r.stats.splats,
+            r.stats.nodes_visited
+        );
+    }
+}
+
+/// The frames the firmware renders of the pack are the simulator's (`render_pack` with the pack's
+/// own light, shadows and field of view at the view and cutoff): same CRC, same counts.
+#[test]
+fn firmware_scene_frames_are_the_simulators_frames() {
+    let Some(pack_path) = big_pack() else {
+        return;
+    };
+    let bytes = std::fs::read(&pack_path).unwrap();
+    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    let mut host = HostSceneFrames::new();
+    let mut sim = FrameBuffers::new();
+    for spec in scene_frame_specs(&scene) {
+        let ours = host.render(&scene, spec).unwrap();
+        let (_, view) = scene.pack().view(spec.view).unwrap();
+        let settings = PackSettings {
+            cutoff_px: f32::from(spec.cutoff_px),
+            ..PackSettings::new(view)
+        };
+        let theirs = render_pack(&scene, &settings, &mut sim).unwrap();
+        assert_eq!(
+            (ours.crc, ours.stats),
+            (sim.crc(), theirs.stats.total),
+            "{ours}: the firmware's frame differs from the simulator's"
+        );
+    }
+}
+
+/// What coarser cutoffs cost in image quality at the `std` view, one-pass shadows: PSNR of the
+/// firmware's 2 px and 4 px frames against its 1 px frame (the scene has no float reference render
+/// yet, so the 1 px frame stands in for it). Printed for the issue's figures; asserted only to fall
+/// as the cutoff grows.
+#[test]
+fn coarser_cutoffs_lose_psnr_against_1_px_at_std() {
+    use pocketsplat_core::shade::rgb565_to_rgb888;
+    use pocketsplat_pda::scene::SceneFrameSpec;
+    use pocketsplat_sim::metrics::psnr_rgb8;
+
+    let Some(pack_path) = big_pack() else {
+        return;
+    };
+    let bytes = std::fs::read(&pack_path).unwrap();
+    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    let std_view = (0..scene.pack().view_count())
+        .find(|&v| scene.pack().view(v).is_some_and(|(n, _)| n == "std"))
+        .expect("the Big Scene has a `std` view");
+    let mut host = HostSceneFrames::new();
+    let mut frame = |cutoff_px| -> Vec<[u8; 3]> {
+        host.render(
+            &scene,
+            SceneFrameSpec {
+                view: std_view,
+                cutoff_px,
+            },
+        )
+        .unwrap();
+        host.color()
+            .as_flattened()
+            .iter()
+            .map(|&p| rgb565_to_rgb888(p))
+            .collect()
+    };
+    let fine = frame(1);
+    let psnr: Vec<(u8, f64)> = SCENE_CUTOFFS_PX[1..]
+        .iter()
+        .map(|&c| (c, psnr_rgb8(&fine, &frame(c))))
+        .collect();
+    for (c, p) in &psnr {
+        eprintln!("std {c} px one-pass: PSNR {p:.2} dB against 1 px");
+    }
+    for w in psnr.windows(2) {
+        assert!(w[0].1 > w[1].1, "PSNR against 1 px: {psnr:?}");
+    }
+}
