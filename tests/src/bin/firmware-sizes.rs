@@ -18,26 +18,35 @@ use std::process::ExitCode;
 use anyhow::{ensure, Context, Result};
 use pocketsplat_pda::Format;
 use pocketsplat_tests::arm::{
-    baked_bunny_as, check_memory, have_qemu, target_dir, Firmware, TARGET,
+    baked_big_scene, baked_bunny_as, check_memory, have_qemu, target_dir, Firmware, TARGET,
 };
 use pocketsplat_tests::fat::make_image;
 
 /// Seconds a run may take (the shadows build renders 48 frames of 2 M samples).
 const TIMEOUT_S: u32 = 900;
 
+/// What a set links into PSRAM.
+#[derive(Clone, Copy)]
+enum Linked {
+    /// The bunny in this format.
+    Bunny(Format),
+    /// The Big Scene's pack (`boards/sim/scenes/big.toml`).
+    BigScene,
+}
+
 /// One row: what the firmware includes.
 struct Set {
     /// Cargo features of pocketsplat-pda besides `model`.
     features: &'static [&'static str],
     /// The model it links in, if any.
-    model: Option<Format>,
+    model: Option<Linked>,
     /// Whether it streams the bunny from a FAT image instead (the `stream` feature).
     image: bool,
     /// What a scene needing this set has.
     what: &'static str,
 }
 
-const SETS: [Set; 6] = [
+const SETS: [Set; 7] = [
     Set {
         features: &[],
         model: None,
@@ -46,25 +55,25 @@ const SETS: [Set; 6] = [
     },
     Set {
         features: &[],
-        model: Some(Format::TriGrid),
+        model: Some(Linked::Bunny(Format::TriGrid)),
         image: false,
         what: "a tri-grid, no shadows",
     },
     Set {
         features: &["shadows"],
-        model: Some(Format::TriGrid),
+        model: Some(Linked::Bunny(Format::TriGrid)),
         image: false,
         what: "a tri-grid with one-pass and two-pass shadows (256² map)",
     },
     Set {
         features: &["qsplat"],
-        model: Some(Format::QSplat),
+        model: Some(Linked::Bunny(Format::QSplat)),
         image: false,
         what: "a QSplat file (tri-grid code linked too)",
     },
     Set {
         features: &["qsplat", "shadows"],
-        model: Some(Format::TriGrid),
+        model: Some(Linked::Bunny(Format::TriGrid)),
         image: false,
         what: "both formats and shadows, drawing a tri-grid",
     },
@@ -73,6 +82,12 @@ const SETS: [Set; 6] = [
         model: None,
         image: true,
         what: "a tri-grid streamed from a FAT image (SD card) through a 64 KB block cache",
+    },
+    Set {
+        features: &["scene", "shadows"],
+        model: Some(Linked::BigScene),
+        image: false,
+        what: "the Big Scene's pack: six objects, eight materials, a 512² map",
     },
 ];
 
@@ -92,9 +107,12 @@ fn run() -> Result<()> {
     println!("|---|---|---|---|---|---|");
     for set in &SETS {
         let model = match set.model {
-            Some(format) => Some(
+            Some(Linked::Bunny(format)) => Some(
                 baked_bunny_as(format)?
                     .context("the bunny is not in ../shared/models (or $POCKETSPLAT_MODELS)")?,
+            ),
+            Some(Linked::BigScene) => Some(
+                baked_big_scene()?.context("the Big Scene's scans are not in ../shared/models")?,
             ),
             None => None,
         };
