@@ -33,8 +33,29 @@ use pocketsplat_tests::fat::{have, make_image};
 const MODEL_FILE: &str = "BUNNY.TG";
 
 /// The firmware's sequence on the host: the same library call over the same image, through
-/// embedded-sdmmc on a host file (and, when `flaky`, the same torture source as `selftest-flaky`).
-fn host_sequence(image: &Path, flaky: bool) -> (Vec<StreamFrame>, StreamTotals) {
+/// The medium under the file system: what the firmware's `selftest-*` features put there.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Medium {
+    /// Every read succeeds.
+    Clean,
+    /// `selftest-flaky`: core's torture source.
+    Flaky,
+    /// `selftest-pulled`: the card is pulled during the orbit.
+    Pulled,
+}
+
+impl Medium {
+    fn feature(self) -> Option<&'static str> {
+        match self {
+            Medium::Clean => None,
+            Medium::Flaky => Some("selftest-flaky"),
+            Medium::Pulled => Some("selftest-pulled"),
+        }
+    }
+}
+
+/// embedded-sdmmc on a host file, through the same medium as the firmware's.
+fn host_sequence(image: &Path, medium: Medium) -> (Vec<StreamFrame>, StreamTotals) {
     let device = FileBlockDevice::open(image).unwrap();
     let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
         embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
@@ -46,10 +67,10 @@ fn host_sequence(image: &Path, flaky: bool) -> (Vec<StreamFrame>, StreamTotals) 
         .open_file_in_dir(root, MODEL_FILE, embedded_sdmmc::Mode::ReadOnly)
         .unwrap();
     let mut sd = SdFile::new(&volumes, file);
-    if flaky {
-        sequence(&mut pocketsplat_pda::stream::flaky(sd))
-    } else {
-        sequence(&mut sd)
+    match medium {
+        Medium::Clean => sequence(&mut sd),
+        Medium::Flaky => sequence(&mut pocketsplat_pda::stream::flaky(sd)),
+        Medium::Pulled => sequence(&mut pocketsplat_pda::stream::pulled(sd)),
     }
 }
 
@@ -84,7 +105,7 @@ fn parse_totals(line: &str) -> Option<StreamTotals> {
 
 #[test]
 fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
-    let Some((totals, marked)) = stream_under_qemu(false) else {
+    let Some((totals, marked, _)) = stream_under_qemu(Medium::Clean) else {
         return;
     };
     assert_eq!(totals.read_errors + totals.crc_errors, 0, "a clean medium");
@@ -97,7 +118,7 @@ fn the_bunny_streams_from_a_fat_image_under_qemu_to_the_host_frames() {
 /// still the resident file's.
 #[test]
 fn bad_reads_leave_blocks_absent_and_the_stream_still_converges_under_qemu() {
-    let Some((totals, marked)) = stream_under_qemu(true) else {
+    let Some((totals, marked, _)) = stream_under_qemu(Medium::Flaky) else {
         return;
     };
     assert!(
@@ -110,11 +131,36 @@ fn bad_reads_leave_blocks_absent_and_the_stream_still_converges_under_qemu() {
     );
 }
 
-/// Builds the image and the firmware (with `selftest-flaky` when `flaky`), runs it, checks its lines
+/// `selftest-pulled`: the card is pulled during the orbit. The firmware keeps drawing what is
+/// resident, every frame after that carries the error marker, and it exits normally (a panic or
+/// HardFault would fail the run).
+#[test]
+fn a_pulled_card_leaves_the_firmware_drawing_the_coarse_model_with_the_marker_under_qemu() {
+    let Some((totals, marked, frames)) = stream_under_qemu(Medium::Pulled) else {
+        return;
+    };
+    assert!(
+        totals.read_errors > 0,
+        "reads failed once the card was gone: {totals:?}"
+    );
+    let first_failed = frames
+        .iter()
+        .position(|f| f.failed > 0)
+        .expect("a frame after the pull");
+    assert!(
+        frames[first_failed..]
+            .iter()
+            .all(|f| f.marker && f.splats > 0),
+        "every frame after the pull is drawn, from resident blocks, with the marker"
+    );
+    assert_eq!(marked, frames.len() - first_failed);
+}
+
+/// Builds the image and the firmware (with the medium's `selftest-*` feature), runs it, checks its lines
 /// against the host's and its converged frames against the resident render, prints the figures and
-/// returns the totals and the number of frames drawn with the error marker; `None` when a tool or
-/// the scan is missing off CI.
-fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
+/// returns the totals, the number of frames drawn with the error marker and the frames; `None`
+/// when a tool or the scan is missing off CI.
+fn stream_under_qemu(medium: Medium) -> Option<(StreamTotals, usize, Vec<StreamFrame>)> {
     if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
         return None;
     }
@@ -126,14 +172,15 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
     );
     // A fixed path per variant: the firmware is built with it, and rebuilding for each run would be
     // waste (the two tests run in parallel, so each has its own).
-    let dir = target_dir().join(if flaky {
-        "models/sd-bunny-flaky"
-    } else {
-        "models/sd-bunny"
+    let dir = target_dir().join(match medium {
+        Medium::Clean => "models/sd-bunny",
+        Medium::Flaky => "models/sd-bunny-flaky",
+        Medium::Pulled => "models/sd-bunny-pulled",
     });
     std::fs::create_dir_all(&dir).unwrap();
     let image = make_image(&dir, &bytes, MODEL_FILE);
-    let features: &[&str] = if flaky { &["selftest-flaky"] } else { &[] };
+    let feature = medium.feature();
+    let features: &[&str] = feature.as_slice();
 
     let fw = Firmware {
         target: TARGET,
@@ -157,7 +204,7 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
         .unwrap_or_else(|| panic!("no `stream total` line:\n{}", run.transcript()));
 
     // The same sequence on the host: same frames, same reads, same misses.
-    let (host, host_totals) = host_sequence(&image, flaky);
+    let (host, host_totals) = host_sequence(&image, medium);
     for (i, (a, h)) in arm.iter().zip(&host).enumerate() {
         assert_eq!(a, h, "streamed frame {i} differs between ARM and host");
     }
@@ -171,8 +218,8 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
     let mut checked = 0;
     // A frame after a failed read carries the error marker over it (same code on both sides, so
     // the ARM and host CRCs above cover it); the others must be exactly the resident render.
-    let marked = arm.iter().filter(|f| f.failed > 0).count();
-    for f in arm.iter().filter(|f| f.converged() && f.failed == 0) {
+    let marked = arm.iter().filter(|f| f.marker).count();
+    for f in arm.iter().filter(|f| f.converged() && !f.marker) {
         let (crc, stats) = frames
             .render_view(&resident, orbit_view(f.az_deg), cutoff)
             .unwrap();
@@ -183,7 +230,13 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
         );
         checked += 1;
     }
-    for leg in [Leg::Std, Leg::Return] {
+    // A pulled card cannot bring back what was evicted: its return leg need not converge.
+    let legs: &[Leg] = if medium == Medium::Pulled {
+        &[Leg::Std]
+    } else {
+        &[Leg::Std, Leg::Return]
+    };
+    for &leg in legs {
         let last = arm.iter().rfind(|f| f.leg == leg).expect("the leg ran");
         assert!(last.converged(), "leg {} ends converged", leg.name());
     }
@@ -198,7 +251,7 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
     eprintln!(
         "QEMU stream{}, cutoff {STREAM_CUTOFF_PX} px, cache {} blocks of {} KB ({CACHE_BYTES} B), \
          image {} KB through embedded-sdmmc over semihosting",
-        if flaky { " (selftest-flaky)" } else { "" },
+        feature.map(|f| format!(" ({f})")).unwrap_or_default(),
         arm_totals.cache_blocks,
         CACHE_BYTES as u32 / arm_totals.cache_blocks.max(1) / 1024,
         std::fs::metadata(&image).unwrap().len() / 1024
@@ -230,5 +283,5 @@ fn stream_under_qemu(flaky: bool) -> Option<(StreamTotals, usize)> {
         run.field("sectors_read").unwrap_or_default()
     );
     eprintln!("  {marked} frames drawn with the read-error marker");
-    Some((arm_totals, marked))
+    Some((arm_totals, marked, arm))
 }

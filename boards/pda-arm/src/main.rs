@@ -368,10 +368,13 @@ mod firmware {
                 Ok(n) => hprintln!("model file {} bytes {}", MODEL_FILE, n),
                 Err(e) => super::fail(format_args!("{MODEL_FILE}: {e:?}")),
             }
-            // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably).
+            // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably); with
+            // `selftest-pulled`, the card is pulled during the orbit.
             #[cfg(feature = "selftest-flaky")]
             let mut src = pocketsplat_pda::stream::flaky(sd);
-            #[cfg(not(feature = "selftest-flaky"))]
+            #[cfg(all(feature = "selftest-pulled", not(feature = "selftest-flaky")))]
+            let mut src = pocketsplat_pda::stream::pulled(sd);
+            #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
             let mut src = sd;
             match stream_frames(&mut src, mem, &mut targets, super::marks::hit, |f| {
                 hprintln!("{}", f)
