@@ -60,6 +60,14 @@ pub const MARKERS: [&str; 5] = [
     "pocketsplat_mark_end",
 ];
 
+/// A cleared frame's rows, on the heap (the firmware's are statics).
+fn rows() -> Box<[[u16; WIDTH]; HEIGHT]> {
+    vec![[0u16; WIDTH]; HEIGHT]
+        .into_boxed_slice()
+        .try_into()
+        .expect("HEIGHT rows")
+}
+
 /// The host's side of a comparison: the buffers the firmware keeps in statics, on the heap, and
 /// the very library call the firmware makes to fill them.
 pub struct HostFrames {
@@ -79,12 +87,6 @@ impl Default for HostFrames {
 impl HostFrames {
     /// Cleared buffers.
     pub fn new() -> Self {
-        let rows = || {
-            vec![[0u16; WIDTH]; HEIGHT]
-                .into_boxed_slice()
-                .try_into()
-                .expect("HEIGHT rows")
-        };
         HostFrames {
             color: rows(),
             depth: rows(),
@@ -506,12 +508,6 @@ impl Default for HostSceneFrames {
 impl HostSceneFrames {
     /// Cleared buffers, the shadow map as large as the firmware's ([`SCENE_MAP_SIZE`]²).
     pub fn new() -> Self {
-        let rows = || {
-            vec![[0u16; WIDTH]; HEIGHT]
-                .into_boxed_slice()
-                .try_into()
-                .expect("HEIGHT rows")
-        };
         HostSceneFrames {
             color: rows(),
             depth: rows(),
