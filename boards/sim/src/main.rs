@@ -189,24 +189,32 @@ enum ReportKind {
         repeats: usize,
     },
     /// Error against run time: every view × cutoff (0.5–16 px) × method (tri-grid, octree, QSplat,
-    /// brute force) × kernel × shadows, measured against the f64 reference renderer. Writes
-    /// DIR/results.csv, DIR/results.md and PNG plots of PSNR against time.
+    /// brute force; a scene's tri-grid and octree packs) × kernel × shadows, measured against the
+    /// f64 reference renderer. Writes DIR/results.csv, DIR/results.md and PNG plots of PSNR
+    /// against time (and against ARM instructions, with --arm).
     ErrorVsTime {
-        /// A mesh (PLY).
+        /// A mesh (PLY) or a scene file (.toml).
         scene: PathBuf,
         /// Output folder.
         #[arg(short, long)]
         out: PathBuf,
-        /// The reduced sweep for CI: tri-grid depth 4, cutoffs 1 and 4 px, one repeat.
+        /// The reduced sweep for CI: depth 4, cutoffs 1 and 4 px, one repeat.
         #[arg(long)]
         quick: bool,
-        /// Tri-grid subdivisions (default 6, or 4 with --quick); the octree gets the nearest
-        /// resolution.
+        /// A mesh: tri-grid subdivisions (default 6, or 4 with --quick; the octree gets the
+        /// nearest resolution). A scene: the deepest object (default the scene's, 4 with --quick).
         #[arg(long)]
         depth: Option<u8>,
         /// Timed repeats per frame, the median is reported (default 5, or 1 with --quick).
         #[arg(long)]
         repeats: Option<usize>,
+        /// ARM instruction counts: a file `arm-bench --json` wrote (repeatable). Frames of the
+        /// same baked file, view, cutoff, shadows and kernel get its count.
+        #[arg(long, value_name = "FILE")]
+        arm: Vec<PathBuf>,
+        /// The target of the ARM counts quoted (default thumbv7m-none-eabi).
+        #[arg(long, value_name = "TRIPLE")]
+        arm_target: Option<String>,
     },
     /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
     Paper {
@@ -405,12 +413,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     quick,
                     depth,
                     repeats,
+                    arm,
+                    arm_target,
                 },
         }) => {
             let opts = report::error_vs_time::Options {
                 quick,
                 depth,
                 repeats,
+                arm,
+                arm_target,
             };
             for path in report::error_vs_time::run(&scene, &out, &opts)? {
                 println!("{}", path.display());

@@ -282,3 +282,178 @@ fn bad_input_names_the_file_and_writes_nothing() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("taken"));
     assert_eq!(std::fs::read(dir.path().join("taken")).unwrap(), b"x");
 }
+
+/// The rows of a `results.csv`, by column name.
+fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(CSV_HEADER));
+    let header: Vec<&str> = CSV_HEADER.split(',').collect();
+    lines
+        .map(|l| {
+            let f = fields(l);
+            assert_eq!(f.len(), header.len(), "{l}");
+            header.iter().map(|h| (*h).to_owned()).zip(f).collect()
+        })
+        .collect()
+}
+
+/// `report error-vs-time` of the Big Scene's file, `--quick`: every view of the scene, both packs,
+/// shadowed frames against ray-cast shadows; then again with an `arm-bench --json` file for one of
+/// its frames, which that frame (and only it) gets, and the ARM section and plot appear; a count
+/// file for another bake is refused and nothing is written.
+#[test]
+fn quick_sweep_of_the_big_scene_with_arm_counts() {
+    if model("bun_zipper.ply.gz").is_none()
+        || model("dragon_vrip.ply.gz").is_none()
+        || model("happy_vrip_res3.ply.gz").is_none()
+    {
+        return;
+    }
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/big.toml");
+    let scene = scene.to_str().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["report", "error-vs-time", scene, "-o", out, "--quick"];
+        args.extend_from_slice(extra);
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_pocketsplat"));
+        cmd.args(&args).current_dir(dir.path());
+        if std::env::var_os("POCKETSPLAT_MODELS").is_none() {
+            cmd.env("POCKETSPLAT_MODELS", models_dir());
+        }
+        cmd.output().expect("pocketsplat runs")
+    };
+    let out = run(&[], "plain");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = csv_rows(&dir.path().join("plain/results.csv"));
+    let mut expected = BTreeSet::new();
+    for view in ["std", "front", "top", "far"] {
+        for method in ["trigrid", "octree"] {
+            for kernel in ["square", "round"] {
+                for shadows in ["off", "one-pass", "two-pass"] {
+                    for cutoff in ["1", "4"] {
+                        expected.insert([view, method, kernel, shadows, cutoff].map(str::to_owned));
+                    }
+                }
+            }
+        }
+    }
+    let got: BTreeSet<[String; 5]> = rows
+        .iter()
+        .map(|r| ["view", "method", "kernel", "shadows", "cutoff_px"].map(|k| r[k].clone()))
+        .collect();
+    assert_eq!(got.len(), rows.len(), "a configuration appears twice");
+    assert_eq!(got, expected);
+    let num = |r: &BTreeMap<String, String>, k: &str| -> f64 { r[k].parse().unwrap() };
+    for r in &rows {
+        assert_eq!(r["scene"], "big.toml");
+        let psnr = num(r, "psnr_db");
+        // Six objects and a ground at depth ≤ 4 against their meshes: clearly alike, not equal.
+        assert!(psnr > 18.0 && psnr < 40.0, "{r:?}");
+        assert!(num(r, "coverage_mismatch") < 0.08, "{r:?}");
+        assert!(num(r, "splats") > 1000.0, "{r:?}");
+        assert_eq!(r["arm_instructions"], "", "{r:?}");
+        let want = if r["shadows"] == "off" {
+            "-"
+        } else {
+            "ray-cast"
+        };
+        assert_eq!(r["reference"], want, "{r:?}");
+    }
+    let md = std::fs::read_to_string(dir.path().join("plain/results.md")).unwrap();
+    assert!(md.contains("ray-cast reference"), "{md}");
+    assert!(md.contains("not measured in this run"), "{md}");
+    assert!(!md.contains("## On ARM"));
+    for plot in [
+        "psnr-vs-ms.png",
+        "psnr-vs-ms-one-pass.png",
+        "psnr-vs-ms-top.png",
+    ] {
+        assert!(md.contains(&format!("]({plot})")), "{plot}");
+        decode_rgb8_png(&std::fs::read(dir.path().join("plain").join(plot)).unwrap()).unwrap();
+    }
+    assert!(!dir.path().join("plain/psnr-vs-arm.png").exists());
+
+    // The pack's CRC, from the method's detail, keys the ARM counts.
+    let detail = &rows.iter().find(|r| r["method"] == "trigrid").unwrap()["detail"];
+    let crc = detail
+        .split("file CRC ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no CRC in {detail:?}"));
+    let line = |crc: &str, view: &str, cutoff: u32, n: u64| {
+        format!(
+            "{{\"model\":\"big.pack\",\"model_crc\":\"{crc}\",\"target\":\"thumbv7m-none-eabi\",\
+             \"build\":\"scene,shadows\",\"view\":\"{view}\",\"cutoff_px\":{cutoff},\
+             \"shadows\":\"one-pass\",\"kernel\":\"square\",\"instructions\":{n}}}\n"
+        )
+    };
+    let mut counts = String::new();
+    for (view, n) in [("std", 1), ("front", 2), ("top", 3), ("far", 4)] {
+        counts.push_str(&line(crc, view, 1, 40_000_000 + n));
+        counts.push_str(&line(crc, view, 4, 10_000_000 + n));
+    }
+    std::fs::write(dir.path().join("arm.jsonl"), counts).unwrap();
+    let out = run(&["--arm", "arm.jsonl"], "arm");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = csv_rows(&dir.path().join("arm/results.csv"));
+    let with: Vec<_> = rows
+        .iter()
+        .filter(|r| !r["arm_instructions"].is_empty())
+        .collect();
+    assert_eq!(with.len(), 8, "{with:?}");
+    for r in with {
+        assert_eq!(
+            [&r["method"], &r["kernel"], &r["shadows"]],
+            ["trigrid", "square", "one-pass"]
+        );
+        let base = if r["cutoff_px"] == "1" { 40 } else { 10 };
+        let n = ["std", "front", "top", "far"]
+            .iter()
+            .position(|v| *v == r["view"])
+            .unwrap() as u64
+            + 1;
+        assert_eq!(num(r, "arm_instructions") as u64, base * 1_000_000 + n);
+    }
+    let md = std::fs::read_to_string(dir.path().join("arm/results.md")).unwrap();
+    assert!(md.contains("## On ARM"), "{md}");
+    assert!(md.contains("| std | trigrid | 4 |"), "{md}");
+    assert!(md.contains("within 1 dB of the 1 px frame"), "{md}");
+    decode_rgb8_png(&std::fs::read(dir.path().join("arm/psnr-vs-arm.png")).unwrap()).unwrap();
+
+    // Counts for another bake: refused, naming the file and both CRCs, and nothing written.
+    std::fs::write(
+        dir.path().join("other.jsonl"),
+        line("0x12345678", "std", 1, 5),
+    )
+    .unwrap();
+    let out = run(&["--arm", "other.jsonl"], "other");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("other.jsonl") && err.contains("0x12345678") && err.contains(crc),
+        "{err}"
+    );
+    assert!(!dir.path().join("other").exists());
+}
+
+#[test]
+fn a_pack_is_refused_with_a_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.pack"), b"PSPK").unwrap();
+    let out = pocketsplat(
+        &["report", "error-vs-time", "s.pack", "-o", "report"],
+        dir.path(),
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("s.pack") && err.contains(".toml"), "{err}");
+    assert!(!dir.path().join("report").exists());
+}

@@ -36,12 +36,22 @@ use crate::ply;
 /// Changes to a scene's `[bake]` settings, for reports that bake one scene several ways.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BakeOverrides {
-    /// ρ instead of the scene's (2 octree, 3 tri-grid).
+    /// ρ instead of the scene's (2 octree, 3 tri-grid). Objects' depths, written for the scene's ρ,
+    /// become those of the nearest resolution in this one ([`depth_near`]).
     pub rho: Option<u8>,
-    /// At most this depth for every baked object.
+    /// At most this depth (of the scene's ρ) for every baked object.
     pub max_depth: Option<u8>,
     /// `min_cell_px` instead of the scene's (0 keeps every level).
     pub min_cell_px: Option<f64>,
+}
+
+/// The depth of a `to_rho` grid whose cells per axis (`to_rho^d`) are nearest those of a `rho` grid
+/// of `depth` (`rho^depth`): e.g. the octree at a tri-grid's resolution. A tie goes to the coarser.
+pub fn depth_near(rho: u8, depth: u8, to_rho: u8) -> u8 {
+    let cells = u64::from(rho).pow(u32::from(depth));
+    (0..=pocketsplat_core::tg::MAX_DEPTH)
+        .min_by_key(|&d| u64::from(to_rho).pow(u32::from(d)).abs_diff(cells))
+        .unwrap_or(0)
 }
 
 /// An object loaded (or generated) and placed, before baking.
@@ -411,10 +421,13 @@ pub fn bake_loaded(
         let what = || format!("{}: object {:?}", scene.path.display(), o.name);
         let (data, asked, kept, savings, samples) = match (&l.mesh, &l.tg) {
             (Some(mesh), _) => {
-                let asked = o
-                    .depth
-                    .unwrap_or(6)
-                    .min(overrides.max_depth.unwrap_or(u8::MAX));
+                let asked = depth_near(
+                    f.bake.rho,
+                    o.depth
+                        .unwrap_or(6)
+                        .min(overrides.max_depth.unwrap_or(u8::MAX)),
+                    rho,
+                );
                 let mut grid = bake_grid(mesh, BakeOptions { rho, depth: asked }, None)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
                 let had_color = grid.levels[0].colors.is_some();
@@ -526,7 +539,8 @@ pub fn bake_loaded(
 }
 
 /// Every mesh object placed in the world as one mesh whose material indices are slots (the f64
-/// reference renderer's input), with the slots' materials.
+/// reference renderer's input), with the slots' materials. With `casters_only`, the objects that
+/// cast shadows (`casts_shadows`, the default) and no others: the mesh shadow rays are cast against.
 ///
 /// # Errors
 /// When an object is a `.tg` file (there is no mesh to draw).
@@ -534,6 +548,7 @@ pub fn world_mesh(
     scene: &Scene,
     objects: &[LoadedObject],
     baked: &BakedScene,
+    casters_only: bool,
 ) -> Result<(TriMesh, Vec<Material>)> {
     let mut out = TriMesh {
         materials: Some(Vec::new()),
@@ -545,6 +560,7 @@ pub fn world_mesh(
         .iter()
         .zip(objects)
         .zip(&baked.object_slots)
+        .filter(|((o, _), _)| o.casts_shadows || !casters_only)
     {
         let Some(mesh) = &l.mesh else {
             bail!(

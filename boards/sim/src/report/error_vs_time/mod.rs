@@ -1,24 +1,28 @@
-//! `pocketsplat report error-vs-time SCENE -o DIR`: image error against run time, for every way the
-//! project can draw a subject.
+//! `pocketsplat report error-vs-time SUBJECT -o DIR`: image error against run time, for every way
+//! the project can draw a subject.
 //!
 //! For each of the subject's named views the report sweeps the LOD cutoff, the methods (formats and
 //! their renderers), the splat kernels and the shadow algorithms a method supports, and measures each
-//! frame against the f64 reference renderer of the original mesh: PSNR, coverage mismatch and holes
-//! ([`crate::metrics`]), host time per frame (median of repeats), nodes visited and splats drawn.
-//! It writes `results.csv` (one row per frame), `results.md` (the best PSNR each method reaches
-//! within a time budget, then every row) and PNG plots of PSNR against time on a log axis, one curve
-//! per method through its Pareto-optimal frames: one plot per view and one for the mean over views.
+//! frame against the f64 reference renderer of the original meshes: PSNR, coverage mismatch and
+//! holes ([`crate::metrics`]), host time per frame (median of repeats), nodes visited and splats
+//! drawn, and, given `arm-bench --json` output ([`arm`]), ARM instructions per frame counted under
+//! QEMU. It writes `results.csv` (one row per frame), `results.md` (the best PSNR each method
+//! reaches within a time budget, the frames on ARM, then every row) and PNG plots of PSNR against
+//! time on a log axis, one curve per method through its Pareto-optimal frames: one plot per view,
+//! one for the mean over views (and one with the subject's own shadows), and one of PSNR against
+//! ARM instructions.
 //!
-//! A subject is a list of named views, a reference render function and a list of [`Method`]s: a
-//! mesh today ([`mesh_subject`]: tri-grid, octree, QSplat and brute force over the four standard
-//! views), and anything else that can name its views and draw them plugs in the same way.
-//!
-//! Not measured yet, and said so in the outputs: ARM instructions per frame (needs a way to run a
-//! given frame configuration under QEMU and read its count); shadowed frames are compared with the
-//! unshadowed reference until the reference renderer casts shadow rays.
+//! A subject is a list of named views, a reference render function and a list of [`Method`]s:
+//! - a mesh ([`mesh_subject`]: tri-grid, octree, QSplat and brute force over the four standard
+//!   views; shadowed frames are compared with the unshadowed reference);
+//! - a scene file ([`scene::scene_subject`]: the scene baked as a tri-grid pack and an octree pack
+//!   over its named views; the reference casts exact shadow rays from the objects that cast
+//!   shadows).
 
+pub mod arm;
 pub mod brute;
 pub mod plot;
+pub mod scene;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -41,6 +45,7 @@ use crate::metrics::{coverage_mismatch, psnr_rgb8};
 use crate::qsplat::render_qs_with;
 use crate::reference::{render_reference, RefImage};
 use crate::render::{render_tg_with, FrameBuffers, FrameReport, Settings, ShadowMode};
+use crate::scene::bake::depth_near;
 
 use brute::{kernel_name, LeafCloud};
 
@@ -55,8 +60,8 @@ pub const QUICK_DEPTH: u8 = 4;
 /// Time budgets of the headline table, ms.
 pub const BUDGETS_MS: [f64; 9] = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0];
 /// Why the ARM column is empty.
-pub const ARM_NOT_MEASURED: &str = "not measured: no way yet to run a given frame configuration \
-     under QEMU and read its instruction count";
+pub const ARM_NOT_MEASURED: &str = "not measured in this run (pass `--arm FILE`, the output of \
+     `cargo run --release -p pocketsplat-tests --bin arm-bench -- --json`)";
 
 /// One frame configuration of a method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +84,11 @@ pub trait Method {
     fn uses_cutoff(&self) -> bool;
     /// Whether it can draw these shadows.
     fn supports(&self, shadows: ShadowMode) -> bool;
+    /// CRC-32 of the file it draws, when firmware can draw the same file (the key of its ARM
+    /// counts, [`arm`]).
+    fn file_crc(&self) -> Option<u32> {
+        None
+    }
     /// Renders `view` into `out` (cleared first), timing setup, traversal and raster.
     ///
     /// # Errors
@@ -126,6 +136,9 @@ pub struct Subject<'a> {
     pub name: String,
     /// Named views.
     pub views: Vec<(String, View)>,
+    /// The subject's own shadows (a scene's; off for a mesh): the mean plot and the budget table
+    /// are also made for them when they are not off.
+    pub shadows: ShadowMode,
     /// The ground truth.
     pub reference: ReferenceFn<'a>,
     /// The methods compared.
@@ -224,6 +237,7 @@ fn median(mut t: Vec<Duration>) -> Duration {
 pub fn measure(
     subject: &mut Subject<'_>,
     sweep: &Sweep,
+    arm: &arm::ArmCounts,
     mut log: impl FnMut(&str),
 ) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
@@ -290,7 +304,15 @@ pub fn measure(
                             wall_ms: median(walls).as_secs_f64() * 1e3,
                             nodes_visited: stats.nodes_visited,
                             splats: stats.splats,
-                            arm_instructions: None,
+                            arm_instructions: method.file_crc().and_then(|crc| {
+                                arm.get(
+                                    crc,
+                                    view_name,
+                                    cfg.cutoff_px,
+                                    shadows_name(shadows),
+                                    kernel_name(kernel),
+                                )
+                            }),
                             reference: if shadows == ShadowMode::Off {
                                 "-".to_owned()
                             } else {
@@ -330,6 +352,7 @@ fn compare(reference: &RefImage, frame: &FrameBuffers) -> (f64, f64, f64) {
 pub struct TgMethod<'a> {
     name: &'static str,
     grid: TriGrid<'a>,
+    crc: u32,
     table: Box<ShadingTable<1>>,
 }
 
@@ -342,6 +365,7 @@ impl<'a> TgMethod<'a> {
         Ok(Self {
             name,
             grid: TriGrid::open(bytes, Verify::Structure)?,
+            crc: pocketsplat_core::crc::crc32(bytes),
             table: Box::new(ShadingTable::new()),
         })
     }
@@ -354,11 +378,12 @@ impl Method for TgMethod<'_> {
     fn detail(&self) -> String {
         let h = self.grid.header();
         format!(
-            "ρ={} depth {} ({} cells across), {} leaves",
+            "ρ={} depth {} ({} cells across), {} leaves, file CRC {:#010x}",
             h.rho,
             h.depth,
             u32::from(h.rho).pow(u32::from(h.depth)),
-            self.grid.leaf_samples()
+            self.grid.leaf_samples(),
+            self.crc
         )
     }
     fn uses_cutoff(&self) -> bool {
@@ -366,6 +391,9 @@ impl Method for TgMethod<'_> {
     }
     fn supports(&self, _: ShadowMode) -> bool {
         true
+    }
+    fn file_crc(&self) -> Option<u32> {
+        Some(self.crc)
     }
     fn render(
         &mut self,
@@ -440,6 +468,7 @@ impl Method for BruteMethod {
 /// A QSplat bounding-sphere tree and its renderer (no shadows: the `.qs` renderer has none).
 pub struct QsMethod<'a> {
     file: QSplat<'a>,
+    crc: u32,
     table: Box<ShadingTable<1>>,
 }
 
@@ -451,6 +480,7 @@ impl<'a> QsMethod<'a> {
     pub fn new(bytes: &'a [u8]) -> Result<Self> {
         Ok(Self {
             file: QSplat::open(bytes).map_err(|e| anyhow::anyhow!("baked .qs file: {e}"))?,
+            crc: pocketsplat_core::crc::crc32(bytes),
             table: Box::new(ShadingTable::new()),
         })
     }
@@ -463,8 +493,8 @@ impl Method for QsMethod<'_> {
     fn detail(&self) -> String {
         let c = self.file.counts();
         format!(
-            "QSplat tree of the mesh's vertices, {} leaves, depth {}",
-            c.leaves, c.max_depth
+            "QSplat tree of the mesh's vertices, {} leaves, depth {}, file CRC {:#010x}",
+            c.leaves, c.max_depth, self.crc
         )
     }
     fn uses_cutoff(&self) -> bool {
@@ -472,6 +502,9 @@ impl Method for QsMethod<'_> {
     }
     fn supports(&self, shadows: ShadowMode) -> bool {
         shadows == ShadowMode::Off
+    }
+    fn file_crc(&self) -> Option<u32> {
+        Some(self.crc)
     }
     fn render(
         &mut self,
@@ -487,15 +520,6 @@ impl Method for QsMethod<'_> {
         };
         render_qs_with(&self.file, &settings, &mut self.table, out, |_, _| {})
     }
-}
-
-/// The octree depth whose cells per axis (2^d) are nearest ρ^depth: the octree at the tri-grid's
-/// resolution (a tie goes to the coarser).
-pub fn octree_depth_near(rho: u8, depth: u8) -> u8 {
-    let cells = u64::from(rho).pow(u32::from(depth));
-    (0..=pocketsplat_core::tg::MAX_DEPTH)
-        .min_by_key(|&d| (1u64 << d).abs_diff(cells))
-        .unwrap_or(0)
 }
 
 /// Baked files of a mesh subject, owned here so the methods can borrow them.
@@ -522,7 +546,7 @@ impl MeshBakes {
         };
         Ok(Self {
             trigrid: bake(3, depth)?,
-            octree: bake(2, octree_depth_near(3, depth))?,
+            octree: bake(2, depth_near(3, depth, 2))?,
             qsplat: bake_qs(mesh, &QsBakeOptions::default())
                 .map_err(|e| anyhow::anyhow!("cannot bake QSplat: {e}"))?
                 .bytes,
@@ -550,6 +574,7 @@ pub fn mesh_subject<'a>(
             .iter()
             .map(|&(n, v)| (n.to_owned(), v))
             .collect(),
+        shadows: ShadowMode::Off,
         reference: Box::new(move |view, _shadows| {
             let s = Settings {
                 view,
@@ -580,10 +605,15 @@ pub fn mesh_subject<'a>(
 pub struct Options {
     /// The reduced sweep for CI.
     pub quick: bool,
-    /// Tri-grid depth (default [`DEPTH`], quick [`QUICK_DEPTH`]).
+    /// A mesh's tri-grid depth (default [`DEPTH`], quick [`QUICK_DEPTH`]); for a scene, the
+    /// deepest object (default the scene's depths, quick [`scene::QUICK_SCENE_DEPTH`]).
     pub depth: Option<u8>,
     /// Timed repeats (default 5, quick 1).
     pub repeats: Option<usize>,
+    /// `arm-bench --json` outputs to read ARM instructions per frame from.
+    pub arm: Vec<PathBuf>,
+    /// The target whose counts are quoted (default [`arm::DEFAULT_TARGET`]).
+    pub arm_target: Option<String>,
 }
 
 /// The files the report writes, by name.
@@ -592,55 +622,69 @@ pub struct Outputs {
     pub files: Vec<(String, Vec<u8>)>,
 }
 
-/// The `report error-vs-time` command: measures `scene` and writes the report into `out_dir`.
-/// Nothing is written unless every frame and plot was made.
+/// The `report error-vs-time` command: measures `input` (a mesh or a scene file) and writes the
+/// report into `out_dir`. Nothing is written unless every frame and plot was made.
 ///
 /// # Errors
-/// When the scene cannot be read or baked, a frame fails, or a file cannot be written.
-pub fn run(scene: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>> {
+/// When the input cannot be read or baked, a frame fails, an ARM count file does not fit, or a
+/// file cannot be written.
+pub fn run(input: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>> {
     if out_dir.exists() && !out_dir.is_dir() {
         bail!("{}: exists and is not a folder", out_dir.display());
     }
-    let ext = scene
+    let ext = input
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "toml" || ext == "pack" {
+    if ext == "pack" {
         bail!(
-            "{}: scenes are not supported by `report error-vs-time` yet; give a mesh (PLY)",
-            scene.display()
+            "{}: a pack holds baked grids, not the meshes the f64 reference is drawn from; give \
+             the scene file (.toml) it was baked from",
+            input.display()
         );
     }
-    let depth = opts
-        .depth
-        .unwrap_or(if opts.quick { QUICK_DEPTH } else { DEPTH });
-    if !(1..=pocketsplat_core::tg::MAX_DEPTH).contains(&depth) {
-        bail!(
-            "--depth {depth}: must be 1..={}",
-            pocketsplat_core::tg::MAX_DEPTH
-        );
+    let is_scene = ext == "toml";
+    let depth = opts.depth.or(match (opts.quick, is_scene) {
+        (true, true) => Some(scene::QUICK_SCENE_DEPTH),
+        (true, false) => Some(QUICK_DEPTH),
+        (false, true) => None,
+        (false, false) => Some(DEPTH),
+    });
+    if let Some(depth) = depth {
+        if !(1..=pocketsplat_core::tg::MAX_DEPTH).contains(&depth) {
+            bail!(
+                "--depth {depth}: must be 1..={}",
+                pocketsplat_core::tg::MAX_DEPTH
+            );
+        }
     }
     let repeats = opts.repeats.unwrap_or(if opts.quick { 1 } else { 5 });
     if repeats == 0 {
         bail!("--repeats 0: need at least one timed frame");
     }
-    let sweep = if opts.quick {
+    let mut sweep = if opts.quick {
         Sweep::quick(repeats)
     } else {
         Sweep::full(repeats)
     };
-    let mesh = crate::ply::load_mesh(scene)?;
-    let bakes =
-        MeshBakes::bake(&mesh, depth).with_context(|| format!("{}: bake", scene.display()))?;
-    let name = scene
+    if is_scene && !opts.quick {
+        sweep.cutoffs = scene::SCENE_CUTOFFS_PX.to_vec();
+    }
+    let arm = if opts.arm.is_empty() {
+        arm::ArmCounts::none()
+    } else {
+        arm::ArmCounts::load(
+            &opts.arm,
+            opts.arm_target.as_deref().unwrap_or(arm::DEFAULT_TARGET),
+        )?
+    };
+    let name = input
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| scene.display().to_string());
-    let mut subject = mesh_subject(&name, &mesh, &bakes)?;
-    let rows = measure(&mut subject, &sweep, |line| eprintln!("measuring {line}"))?;
+        .unwrap_or_else(|| input.display().to_string());
     let mut command = format!(
         "pocketsplat report error-vs-time {} -o {}",
-        scene.display(),
+        input.display(),
         out_dir.display()
     );
     if opts.quick {
@@ -652,7 +696,24 @@ pub fn run(scene: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>>
     if let Some(r) = opts.repeats {
         let _ = write!(command, " --repeats {r}");
     }
-    let outputs = outputs(&subject, &sweep, &rows, &command)?;
+    for a in &opts.arm {
+        let _ = write!(command, " --arm {}", a.display());
+    }
+    if let Some(t) = &opts.arm_target {
+        let _ = write!(command, " --arm-target {t}");
+    }
+    let outputs = if is_scene {
+        let bakes = scene::bake_scene_file(input, depth)?;
+        let subject = scene::scene_subject(&name, &bakes)?;
+        measure_and_write(subject, &sweep, &arm, &command)?
+    } else {
+        let depth = depth.expect("a mesh's depth has a default");
+        let mesh = crate::ply::load_mesh(input)?;
+        let bakes =
+            MeshBakes::bake(&mesh, depth).with_context(|| format!("{}: bake", input.display()))?;
+        let subject = mesh_subject(&name, &mesh, &bakes)?;
+        measure_and_write(subject, &sweep, &arm, &command)?
+    };
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create folder {}", out_dir.display()))?;
     let mut written = Vec::new();
@@ -664,6 +725,25 @@ pub fn run(scene: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>>
     Ok(written)
 }
 
+/// Checks the ARM counts fit the subject's bakes, measures and makes every output.
+fn measure_and_write(
+    mut subject: Subject<'_>,
+    sweep: &Sweep,
+    arm: &arm::ArmCounts,
+    command: &str,
+) -> Result<Outputs> {
+    let crcs: Vec<(String, u32)> = subject
+        .methods
+        .iter()
+        .filter_map(|m| m.file_crc().map(|c| (m.name().to_owned(), c)))
+        .collect();
+    arm.check_models(&crcs)?;
+    let rows = measure(&mut subject, sweep, arm, |line| {
+        eprintln!("measuring {line}");
+    })?;
+    outputs(&subject, sweep, &rows, arm, command)
+}
+
 /// Every output file, in memory.
 ///
 /// # Errors
@@ -672,38 +752,85 @@ pub fn outputs(
     subject: &Subject<'_>,
     sweep: &Sweep,
     rows: &[Row],
+    arm: &arm::ArmCounts,
     command: &str,
 ) -> Result<Outputs> {
     let mut files = vec![("results.csv".to_owned(), csv(rows).into_bytes())];
     let mut plots = Vec::new();
-    let overall = overall_points(rows);
-    plots.push((
-        "psnr-vs-ms.png".to_owned(),
-        plot::plot_png(
-            &format!("{}: mean over views, shadows off", subject.name),
-            &curves(&overall),
-        )?,
-    ));
+    let own = shadows_name(subject.shadows);
+    for shadows in modes_plotted(subject) {
+        let points = mean_points(rows, shadows, |r| Some(r.ms));
+        plots.push((
+            mean_plot_name(subject, shadows),
+            plot::plot_png(
+                &format!("{}: mean over views, shadows {shadows}", subject.name),
+                plot::X_HOST_MS,
+                &curves(&points),
+            )?,
+        ));
+    }
     for (view, _) in &subject.views {
         let points: Vec<Point> = rows
             .iter()
             .filter(|r| &r.view == view && r.shadows == "off")
-            .map(Point::of)
+            .map(|r| Point::of(r, r.ms))
             .collect();
         plots.push((
             format!("psnr-vs-ms-{view}.png"),
             plot::plot_png(
                 &format!("{}: view {view}, shadows off", subject.name),
+                plot::X_HOST_MS,
                 &curves(&points),
+            )?,
+        ));
+    }
+    let on_arm = mean_points(rows, own, arm_millions);
+    if !on_arm.is_empty() {
+        plots.push((
+            ARM_PLOT.to_owned(),
+            plot::plot_png(
+                &format!(
+                    "{}: mean over views, shadows {own}, {}",
+                    subject.name,
+                    arm.target()
+                ),
+                plot::X_ARM_MINSTR,
+                &curves(&on_arm),
             )?,
         ));
     }
     files.push((
         "results.md".to_owned(),
-        markdown(subject, sweep, rows, &overall, command).into_bytes(),
+        markdown(subject, sweep, rows, arm, command).into_bytes(),
     ));
     files.extend(plots);
     Ok(Outputs { files })
+}
+
+/// The PSNR-against-ARM-instructions plot's file name.
+pub const ARM_PLOT: &str = "psnr-vs-arm.png";
+
+/// ARM instructions of a row, millions.
+fn arm_millions(r: &Row) -> Option<f64> {
+    r.arm_instructions.map(|n| n as f64 / 1e6)
+}
+
+/// The shadow modes the mean plot and the budget table are made for: off, and the subject's own.
+fn modes_plotted(subject: &Subject<'_>) -> Vec<&'static str> {
+    let mut m = vec!["off"];
+    if subject.shadows != ShadowMode::Off {
+        m.push(shadows_name(subject.shadows));
+    }
+    m
+}
+
+/// `psnr-vs-ms.png` (shadows off), `psnr-vs-ms-one-pass.png`, …
+fn mean_plot_name(subject: &Subject<'_>, shadows: &str) -> String {
+    if shadows == "off" || subject.shadows == ShadowMode::Off {
+        "psnr-vs-ms.png".to_owned()
+    } else {
+        format!("psnr-vs-ms-{shadows}.png")
+    }
 }
 
 /// A frame configuration on a plot: method, kernel, cutoff, time and PSNR.
@@ -717,12 +844,12 @@ struct Point {
 }
 
 impl Point {
-    fn of(r: &Row) -> Self {
+    fn of(r: &Row, x: f64) -> Self {
         Self {
             method: r.method.clone(),
             kernel: r.kernel.clone(),
             cutoff_px: r.cutoff_px,
-            ms: r.ms,
+            ms: x,
             psnr_db: r.psnr_db,
         }
     }
@@ -734,16 +861,20 @@ impl Point {
     }
 }
 
-/// Shadows-off configurations averaged over the views that have them all: mean time, mean PSNR.
-fn overall_points(rows: &[Row]) -> Vec<Point> {
+/// The configurations with `shadows` averaged over the views that have them all, with an `x` for
+/// each: mean `x` (host time, ARM instructions, …), mean PSNR. Rows without an `x` are left out.
+fn mean_points(rows: &[Row], shadows: &str, x: impl Fn(&Row) -> Option<f64>) -> Vec<Point> {
     let views: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.view.as_str()).collect();
-    let mut groups: BTreeMap<(String, String, String), Vec<&Row>> = BTreeMap::new();
-    for r in rows.iter().filter(|r| r.shadows == "off") {
+    // (method, kernel, cutoff) → the rows of each view with their x.
+    type Group<'r> = Vec<(&'r Row, f64)>;
+    let mut groups: BTreeMap<(String, String, String), Group<'_>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.shadows == shadows) {
+        let Some(v) = x(r) else { continue };
         let cutoff = r.cutoff_px.map(|c| c.to_string()).unwrap_or_default();
         groups
             .entry((r.method.clone(), r.kernel.clone(), cutoff))
             .or_default()
-            .push(r);
+            .push((r, v));
     }
     let mut out: Vec<Point> = groups
         .into_values()
@@ -751,9 +882,9 @@ fn overall_points(rows: &[Row]) -> Vec<Point> {
         .map(|g| {
             let n = g.len() as f64;
             Point {
-                ms: g.iter().map(|r| r.ms).sum::<f64>() / n,
-                psnr_db: g.iter().map(|r| r.psnr_db).sum::<f64>() / n,
-                ..Point::of(g[0])
+                ms: g.iter().map(|(_, v)| v).sum::<f64>() / n,
+                psnr_db: g.iter().map(|(r, _)| r.psnr_db).sum::<f64>() / n,
+                ..Point::of(g[0].0, 0.0)
             }
         })
         .collect();
@@ -884,14 +1015,14 @@ fn markdown(
     subject: &Subject<'_>,
     sweep: &Sweep,
     rows: &[Row],
-    overall: &[Point],
+    arm: &arm::ArmCounts,
     command: &str,
 ) -> String {
     let mut md = format!("# Error against run time: {}\n\n", subject.name);
     let _ = writeln!(
         md,
         "Made by `{command}`. Every frame is 240 × 320 and compared with the f64 reference \
-         renderer of the original mesh: PSNR over 8-bit RGB, coverage mismatch (pixels covered \
+         renderer of the original meshes: PSNR over 8-bit RGB, coverage mismatch (pixels covered \
          by one image only) and holes (covered by the reference only). Time is the host's \
          CPU time of the rendering thread for setup + traversal + raster, the median of {} \
          repeat{} ({}; wall times are in `results.csv`); nodes are the cells visited (points \
@@ -924,20 +1055,43 @@ fn markdown(
         }
         None => {}
     }
-    let _ = writeln!(md, "ARM instructions per frame: {ARM_NOT_MEASURED}.\n");
-    md.push_str(
-        "## Best PSNR within a time budget\n\nMean over the views, shadows off: for each method \
-         the best mean PSNR among its configurations (cutoff, kernel) whose mean time fits the \
-         budget; 〃 is the same frame as in the smaller budget.\n\n",
-    );
-    md.push_str(&budget_table(overall));
-    md.push_str("\n![PSNR against time, mean over views](psnr-vs-ms.png)\n");
+    if arm.is_empty() {
+        let _ = writeln!(md, "ARM instructions per frame: {ARM_NOT_MEASURED}.\n");
+    } else {
+        let files: Vec<String> = arm.files().iter().map(|f| arm::file_name(f)).collect();
+        let _ = writeln!(
+            md,
+            "ARM instructions per frame ({}, counted exactly under QEMU by `arm-bench --json`, \
+             read from {}) are given for the frames the firmware draws, with square splats, \
+             where the firmware was built with the same baked file (its CRC-32): see \
+             [On ARM](#on-arm).\n",
+            arm.target(),
+            files.join(", ")
+        );
+    }
+    for shadows in modes_plotted(subject) {
+        let _ = writeln!(
+            md,
+            "## Best PSNR within a time budget, shadows {shadows}\n\nMean over the views: for \
+             each method the best mean PSNR among its configurations (cutoff, kernel) whose mean \
+             time fits the budget; 〃 is the same frame as in the smaller budget.\n"
+        );
+        md.push_str(&budget_table(&mean_points(rows, shadows, |r| Some(r.ms))));
+        let _ = writeln!(
+            md,
+            "\n![PSNR against time, mean over views, shadows {shadows}]({})\n",
+            mean_plot_name(subject, shadows)
+        );
+    }
+    if !arm.is_empty() {
+        md.push_str(&arm_section(subject, rows));
+    }
     for (view, _) in &subject.views {
         let _ = writeln!(md, "\n## View `{view}`\n");
         let points: Vec<Point> = rows
             .iter()
             .filter(|r| &r.view == view && r.shadows == "off")
-            .map(Point::of)
+            .map(|r| Point::of(r, r.ms))
             .collect();
         md.push_str(&budget_table(&points));
         let _ = writeln!(
@@ -971,6 +1125,86 @@ fn markdown(
     md
 }
 
+/// `## On ARM`: the frames with an instruction count, in the subject's own shadows, per view: cost,
+/// frames per second at 200 MHz, PSNR and its loss against the same method's 1 px frame, and the
+/// cheapest frame within 1 dB of 1 px.
+fn arm_section(subject: &Subject<'_>, rows: &[Row]) -> String {
+    let own = shadows_name(subject.shadows);
+    let mut md = format!(
+        "## On ARM\n\nShadows {own}. Frames per second assume one instruction per cycle at \
+         200 MHz; Δ is the PSNR lost against the same method's frame at 1 px.\n\n\
+         ![PSNR against ARM instructions per frame, mean over views]({ARM_PLOT})\n\n\
+         | view | method | cutoff px | PSNR dB | Δ dB | ARM instructions | fps at 200 MHz | host \
+         ms |\n|---|---|---|---|---|---|---|---|\n"
+    );
+    let mut cheapest = String::new();
+    for (view, _) in &subject.views {
+        let mut on: Vec<&Row> = rows
+            .iter()
+            .filter(|r| &r.view == view && r.shadows == own && r.arm_instructions.is_some())
+            .collect();
+        on.sort_by(|a, b| {
+            a.method.cmp(&b.method).then(
+                a.cutoff_px
+                    .unwrap_or(0.0)
+                    .total_cmp(&b.cutoff_px.unwrap_or(0.0)),
+            )
+        });
+        for r in &on {
+            let fine = on
+                .iter()
+                .find(|f| f.method == r.method && f.cutoff_px == Some(1.0));
+            let n = r.arm_instructions.expect("filtered");
+            let _ = writeln!(
+                md,
+                "| {view} | {} | {} | {:.2} | {} | {:.1} M | {:.2} | {:.2} |",
+                r.method,
+                r.cutoff_px.map_or("—".to_owned(), |c| c.to_string()),
+                r.psnr_db,
+                fine.map_or("—".to_owned(), |f| format!(
+                    "{:.2}",
+                    f.psnr_db - r.psnr_db
+                )),
+                n as f64 / 1e6,
+                200e6 / n as f64,
+                r.ms
+            );
+        }
+        let mut methods: Vec<&str> = on.iter().map(|r| r.method.as_str()).collect();
+        methods.dedup();
+        for m in methods {
+            let Some(fine) = on
+                .iter()
+                .find(|f| f.method == m && f.cutoff_px == Some(1.0))
+            else {
+                continue;
+            };
+            if let Some(best) = on
+                .iter()
+                .filter(|r| r.method == m && r.psnr_db >= fine.psnr_db - 1.0)
+                .min_by_key(|r| r.arm_instructions)
+            {
+                let _ = writeln!(
+                    cheapest,
+                    "- `{view}`, {m}: {} px, {:.1} M instructions ({:.2} dB; 1 px: {:.1} M, \
+                     {:.2} dB)",
+                    best.cutoff_px.unwrap_or(1.0),
+                    best.arm_instructions.expect("filtered") as f64 / 1e6,
+                    best.psnr_db,
+                    fine.arm_instructions.expect("filtered") as f64 / 1e6,
+                    fine.psnr_db
+                );
+            }
+        }
+    }
+    if !cheapest.is_empty() {
+        md.push_str("\nThe cheapest frame on ARM within 1 dB of the 1 px frame:\n\n");
+        md.push_str(&cheapest);
+    }
+    md.push('\n');
+    md
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -978,9 +1212,10 @@ mod tests {
     #[test]
     fn the_octree_nearest_a_depth_6_trigrid_is_depth_9() {
         // 3⁶ = 729 cells: 2⁹ = 512 is 217 away, 2¹⁰ = 1024 is 295.
-        assert_eq!(octree_depth_near(3, 6), 9);
-        assert_eq!(octree_depth_near(3, 4), 6); // 81: 64 vs 128
-        assert_eq!(octree_depth_near(2, 7), 7);
+        assert_eq!(depth_near(3, 6, 2), 9);
+        assert_eq!(depth_near(3, 4, 2), 6); // 81: 64 vs 128
+        assert_eq!(depth_near(2, 7, 2), 7);
+        assert_eq!(depth_near(2, 9, 3), 6); // 512: 729 vs 243
     }
 
     fn point(method: &str, ms: f64, psnr_db: f64) -> Point {

@@ -11,13 +11,18 @@ use plotters::style::{register_font, FontStyle};
 
 use crate::image::encode_rgb8_png;
 
+/// The x axis of a plot of host time.
+pub const X_HOST_MS: &str = "host CPU time per frame, ms (log scale)";
+/// The x axis of a plot of ARM cost.
+pub const X_ARM_MINSTR: &str = "ARM instructions per frame, millions (log scale)";
+
 /// Plot size, pixels.
 pub const SIZE: (u32, u32) = (900, 600);
 
 /// The bundled font (see `assets/fonts/LICENSE.txt`).
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans-subset.ttf");
 
-/// One method's frames: `(ms, PSNR dB)`.
+/// One method's frames: `(x, PSNR dB)`, x being time or instructions.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Curve {
     /// Legend entry.
@@ -66,15 +71,15 @@ fn register() -> Result<()> {
 }
 
 /// Draws the curves (all frames as faint dots, the Pareto front as a line with solid dots) on a
-/// log time axis and returns the PNG.
+/// log x axis described by `x_desc` (e.g. [`X_HOST_MS`]) and returns the PNG.
 ///
 /// # Errors
 /// When plotters fails to draw or the PNG cannot be encoded.
-pub fn plot_png(title: &str, curves: &[Curve]) -> Result<Vec<u8>> {
+pub fn plot_png(title: &str, x_desc: &str, curves: &[Curve]) -> Result<Vec<u8>> {
     register()?;
     let (w, h) = SIZE;
     let mut buf = vec![0u8; w as usize * h as usize * 3];
-    draw(&mut buf, title, curves).map_err(|e| anyhow!("plot {title:?}: {e}"))?;
+    draw(&mut buf, title, x_desc, curves).map_err(|e| anyhow!("plot {title:?}: {e}"))?;
     let pixels: Vec<[u8; 3]> = buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     encode_rgb8_png(w, h, &pixels)
 }
@@ -102,7 +107,12 @@ fn ranges(curves: &[Curve]) -> ((f64, f64), (f64, f64)) {
     ((x0, x1), ((y0 - pad).floor(), (y1 + pad).ceil()))
 }
 
-fn draw(buf: &mut [u8], title: &str, curves: &[Curve]) -> Result<(), Box<dyn std::error::Error>> {
+fn draw(
+    buf: &mut [u8],
+    title: &str,
+    x_desc: &str,
+    curves: &[Curve],
+) -> Result<(), Box<dyn std::error::Error>> {
     let root = BitMapBackend::with_buffer(buf, SIZE).into_drawing_area();
     root.fill(&WHITE)?;
     let ((x0, x1), (y0, y1)) = ranges(curves);
@@ -114,7 +124,7 @@ fn draw(buf: &mut [u8], title: &str, curves: &[Curve]) -> Result<(), Box<dyn std
         .build_cartesian_2d((x0..x1).log_scale(), y0..y1)?;
     chart
         .configure_mesh()
-        .x_desc("host CPU time per frame, ms (log scale)")
+        .x_desc(x_desc)
         .y_desc("PSNR against the f64 reference, dB")
         .label_style(("sans-serif", 15))
         .bold_line_style(RGBColor(200, 200, 200))
@@ -186,7 +196,7 @@ mod tests {
                 points: vec![(40.0, 30.0)],
             },
         ];
-        let png = plot_png("test", &curves).unwrap();
+        let png = plot_png("test", X_HOST_MS, &curves).unwrap();
         let img = decode_rgb8_png(&png).unwrap();
         assert_eq!((img.width, img.height), SIZE);
         let count = |c: [u8; 3]| img.pixels.iter().filter(|&&p| p == c).count();
@@ -204,7 +214,7 @@ mod tests {
 
     #[test]
     fn an_empty_plot_still_draws() {
-        let png = plot_png("nothing", &[]).unwrap();
+        let png = plot_png("nothing", X_ARM_MINSTR, &[]).unwrap();
         assert!(decode_rgb8_png(&png).is_ok());
     }
 }
