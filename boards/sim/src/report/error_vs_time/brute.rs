@@ -12,7 +12,7 @@
 
 use std::time::Instant;
 
-use pocketsplat_core::camera::{self, Camera, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
 use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
 use pocketsplat_core::shade::ShadingTable;
@@ -104,49 +104,30 @@ impl LeafCloud {
             camera::scale(cam.forward, -1.0),
         );
         let (z0, z_scale) = self.depth_map(&cam);
-        let size_k = 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0;
         let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
         fb.clear(0);
         let mut stats = Stats {
             nodes_visited: self.points.len() as u32,
             ..Stats::default()
         };
-        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
-        for (p, &attr) in self.points.iter().zip(&self.attrs) {
-            let d = camera::sub(*p, cam.eye);
-            let z = camera::dot(d, cam.forward);
-            if z < cam.near {
-                stats.culled += 1;
-                continue;
-            }
-            let n = NORMALS_Q14[usize::from(attr) & (NORMAL_COUNT - 1)];
-            let n = n.map(f64::from);
-            if n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
-                stats.backfacing += 1;
-                continue;
-            }
-            let inv = cam.focal_px / z;
-            let sx = cx + camera::dot(d, cam.right) * inv;
-            let sy = cy - camera::dot(d, cam.up) * inv;
-            let size_q4 = size_k / z;
-            let r = size_q4 / 32.0 + 1.0;
-            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
-                stats.culled += 1;
-                continue;
-            }
-            let depth = ((z - z0) * z_scale).clamp(0.0, 65534.0) as u16;
-            fb.splat(
-                &Splat {
-                    x_q4: (sx * 16.0).round() as i32,
-                    y_q4: (sy * 16.0).round() as i32,
-                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
-                    depth,
-                    color: table.color(attr),
-                },
-                settings.kernel,
-            );
-            stats.splats += 1;
-        }
+        let frame = BruteFrame {
+            cam: &cam,
+            z0,
+            z_scale,
+            table,
+            kernel: settings.kernel,
+            backface_culling: true,
+        };
+        frame.draw(
+            PointRun {
+                points: &self.points,
+                attrs: &self.attrs,
+                rotation: &Placement::IDENTITY.rotation,
+                size_k: 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0,
+            },
+            &mut fb,
+            &mut stats,
+        );
         FrameReport {
             stats,
             time: t.elapsed(),
@@ -165,9 +146,88 @@ impl LeafCloud {
             lo = lo.min(z);
             hi = hi.max(z);
         }
-        let lo = lo.max(cam.near);
-        let hi = hi.max(lo * (1.0 + 1e-9) + f64::MIN_POSITIVE);
-        (lo, 65534.0 / (hi - lo))
+        depth_map(lo, hi, cam.near)
+    }
+}
+
+/// `(z0, scale)` spreading depth `(z − z0) · scale` over 0..=65534 for camera depths `lo..=hi`,
+/// `lo` at least the near plane (an empty or flat range still gets a finite scale).
+fn depth_map(lo: f64, hi: f64, near: f64) -> (f64, f64) {
+    let lo = lo.max(near);
+    let hi = hi.max(lo * (1.0 + 1e-9) + f64::MIN_POSITIVE);
+    (lo, 65534.0 / (hi - lo))
+}
+
+/// Points drawn with one normal rotation and one splat size: a [`LeafCloud`], or one object of a
+/// scene.
+struct PointRun<'p> {
+    /// World positions.
+    points: &'p [Vec3],
+    /// Attributes; their material bits pick the shading table's slot.
+    attrs: &'p [u16],
+    /// Model-to-world rotation of the normal codes (row-major).
+    rotation: &'p [[f64; 3]; 3],
+    /// Splat diameter in Q4 pixels times camera depth: `√3 · leaf side (world) · f · 16`.
+    size_k: f64,
+}
+
+/// What every point of a frame is projected, shaded and depth-mapped with.
+struct BruteFrame<'f, const M: usize> {
+    cam: &'f Camera,
+    /// Depth `(z − z0) · z_scale`.
+    z0: f64,
+    z_scale: f64,
+    table: &'f ShadingTable<M>,
+    kernel: Kernel,
+    /// Skip points whose world normal faces away from the eye.
+    backface_culling: bool,
+}
+
+impl<const M: usize> BruteFrame<'_, M> {
+    /// Projects, culls and splats every point of `run` into `fb`, counting into `stats`
+    /// (`culled`, `backfacing`, `splats`; the caller counts `nodes_visited`). The one per-point
+    /// loop both clouds draw with.
+    fn draw(&self, run: PointRun<'_>, fb: &mut Framebuffer<'_>, stats: &mut Stats) {
+        let cam = self.cam;
+        let rot = run.rotation;
+        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
+        for (p, &attr) in run.points.iter().zip(run.attrs) {
+            let d = camera::sub(*p, cam.eye);
+            let z = camera::dot(d, cam.forward);
+            if z < cam.near {
+                stats.culled += 1;
+                continue;
+            }
+            let n = NORMALS_Q14[usize::from(attr) & (NORMAL_COUNT - 1)];
+            let n = n.map(f64::from);
+            // The world normal (with the identity, exactly the model normal).
+            let n = [0, 1, 2].map(|k| camera::dot(rot[k], n));
+            if self.backface_culling && camera::dot(n, d) > 0.0 {
+                stats.backfacing += 1;
+                continue;
+            }
+            let inv = cam.focal_px / z;
+            let sx = cx + camera::dot(d, cam.right) * inv;
+            let sy = cy - camera::dot(d, cam.up) * inv;
+            let size_q4 = run.size_k / z;
+            let r = size_q4 / 32.0 + 1.0;
+            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
+                stats.culled += 1;
+                continue;
+            }
+            let depth = ((z - self.z0) * self.z_scale).clamp(0.0, 65534.0) as u16;
+            fb.splat(
+                &Splat {
+                    x_q4: (sx * 16.0).round() as i32,
+                    y_q4: (sy * 16.0).round() as i32,
+                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
+                    depth,
+                    color: self.table.color(attr),
+                },
+                self.kernel,
+            );
+            stats.splats += 1;
+        }
     }
 }
 
