@@ -549,6 +549,16 @@ depth = 4
 rotate = { pitch = -90.0 }
 translate = [-0.2, 0.4, -0.7]
 anchor = "center"
+
+# Behind the tree, facing the eye: only depths over the range all objects share put it behind.
+[[objects]]
+name = "backdrop"
+ground = { size = 0.9 }
+material = "grass"
+depth = 4
+rotate = { pitch = 90.0 }
+translate = [0.3, 0.5, -0.75]
+anchor = "center"
 "#;
 
     fn small_pack() -> Vec<u8> {
@@ -569,7 +579,7 @@ anchor = "center"
         let bytes = small_pack();
         let scene = open_scene(&bytes);
         let cloud = SceneCloud::from_scene(&scene);
-        assert_eq!(scene.len(), 3);
+        assert_eq!(scene.len(), 4);
         assert_eq!(cloud.objects.len(), scene.len());
         let mut total = 0;
         for (i, o) in cloud.objects.iter().enumerate() {
@@ -632,8 +642,9 @@ anchor = "center"
             let mut table = scene_table();
             let mut brute = FrameBuffers::new();
             let b = cloud.render(&scene, &cam, &opts, &mut table, &mut brute);
-            // The ground and the tree are drawn down to their leaves; the wall faces away.
-            for i in 0..2 {
+            // The ground, the tree and the backdrop are drawn down to their leaves; the wall faces
+            // away.
+            for i in [0, 1, 3] {
                 let depth = scene.grid(i).unwrap().header().depth;
                 assert_eq!(r.stats.objects[i].max_level, depth, "object {i}");
             }
