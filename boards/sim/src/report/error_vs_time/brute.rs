@@ -591,7 +591,8 @@ anchor = "center"
             assert_eq!(o.rotation, rec.placement.rotation);
             let model_leaf = LeafCloud::from_grid(grid).leaf_side;
             assert!((o.leaf_side - model_leaf * rec.placement.scale).abs() < 1e-12);
-            // Placed: every leaf centre lies in the object's world box, widened by half a leaf.
+            // Placed: every leaf centre lies in the object's world box, widened by half a leaf's
+            // diagonal.
             let b = scene.world_bounds(i).unwrap();
             let slack = 0.5 * 3f64.sqrt() * o.leaf_side + 1e-9;
             for p in &cloud.points[o.range.clone()] {
