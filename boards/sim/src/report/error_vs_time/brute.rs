@@ -9,17 +9,26 @@
 //! projected diameter of the cell's bounding sphere, `√3 · side · f / z`), shaded through the same
 //! table and depth-tested in the same 16-bit buffer, so the two differ only in how they choose and
 //! project samples.
+//!
+//! A scene pack's baseline ([`SceneCloud`]) is every object's leaves placed in the world, drawn as
+//! the scene renderer draws its objects (`pocketsplat_core::scene::render`): each point's material
+//! index replaced by its object's slot of the one shading table, its normal turned by its object's
+//! rotation for the backface test, its splat scaled by its object's scale, its depth mapped over
+//! the range all objects share. Both clouds draw through one per-point loop.
 
+use std::ops::Range;
 use std::time::Instant;
 
-use pocketsplat_core::camera::{self, Camera, Vec3, HEIGHT, WIDTH};
-use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
+use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_BITS, NORMAL_COUNT};
 use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
+use pocketsplat_core::scene::{ObjectRecord, Scene, SceneOptions, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::TriGrid;
 
 use crate::render::{FrameBuffers, FrameReport, Settings};
+use crate::scene::render::SceneTable;
 
 /// The leaf samples of a grid as a flat point list (the brute-force "format").
 #[derive(Clone, Debug)]
@@ -104,49 +113,30 @@ impl LeafCloud {
             camera::scale(cam.forward, -1.0),
         );
         let (z0, z_scale) = self.depth_map(&cam);
-        let size_k = 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0;
         let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
         fb.clear(0);
         let mut stats = Stats {
             nodes_visited: self.points.len() as u32,
             ..Stats::default()
         };
-        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
-        for (p, &attr) in self.points.iter().zip(&self.attrs) {
-            let d = camera::sub(*p, cam.eye);
-            let z = camera::dot(d, cam.forward);
-            if z < cam.near {
-                stats.culled += 1;
-                continue;
-            }
-            let n = NORMALS_Q14[usize::from(attr) & (NORMAL_COUNT - 1)];
-            let n = n.map(f64::from);
-            if n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
-                stats.backfacing += 1;
-                continue;
-            }
-            let inv = cam.focal_px / z;
-            let sx = cx + camera::dot(d, cam.right) * inv;
-            let sy = cy - camera::dot(d, cam.up) * inv;
-            let size_q4 = size_k / z;
-            let r = size_q4 / 32.0 + 1.0;
-            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
-                stats.culled += 1;
-                continue;
-            }
-            let depth = ((z - z0) * z_scale).clamp(0.0, 65534.0) as u16;
-            fb.splat(
-                &Splat {
-                    x_q4: (sx * 16.0).round() as i32,
-                    y_q4: (sy * 16.0).round() as i32,
-                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
-                    depth,
-                    color: table.color(attr),
-                },
-                settings.kernel,
-            );
-            stats.splats += 1;
-        }
+        let frame = BruteFrame {
+            cam: &cam,
+            z0,
+            z_scale,
+            table,
+            kernel: settings.kernel,
+            backface_culling: true,
+        };
+        frame.draw(
+            PointRun {
+                points: &self.points,
+                attrs: &self.attrs,
+                rotation: &Placement::IDENTITY.rotation,
+                size_k: 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0,
+            },
+            &mut fb,
+            &mut stats,
+        );
         FrameReport {
             stats,
             time: t.elapsed(),
@@ -165,9 +155,225 @@ impl LeafCloud {
             lo = lo.min(z);
             hi = hi.max(z);
         }
-        let lo = lo.max(cam.near);
-        let hi = hi.max(lo * (1.0 + 1e-9) + f64::MIN_POSITIVE);
-        (lo, 65534.0 / (hi - lo))
+        depth_map(lo, hi, cam.near)
+    }
+}
+
+/// One object of a [`SceneCloud`]: where its points are and how they are drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CloudObject {
+    /// Its points' indices in [`SceneCloud::points`] and [`SceneCloud::attrs`].
+    pub range: Range<usize>,
+    /// Model-to-world rotation of its normals: its placement's (row-major).
+    pub rotation: [[f64; 3]; 3],
+    /// Side of its leaf cells, world units: its file's leaf side times its placement's scale.
+    pub leaf_side: f64,
+}
+
+/// Every leaf sample of every object of a scene pack, placed in the world: the brute-force
+/// baseline of a scene, drawn as the scene renderer draws its objects' leaves (one shading table
+/// with a slot per material and rotation, one depth range shared by all objects), without shadows.
+#[derive(Clone, Debug)]
+pub struct SceneCloud {
+    /// Cell centres, world units (each object's leaf centres through its placement).
+    pub points: Vec<Vec3>,
+    /// Attribute of each point: its normal code (model frame, as the table's slots are shaded) and
+    /// its object's slot for its file's material index in the material bits, as the scene
+    /// renderer's slot sink hands them to the shading table.
+    pub attrs: Vec<u16>,
+    /// The objects, in pack order.
+    pub objects: Vec<CloudObject>,
+}
+
+impl SceneCloud {
+    /// Every leaf of every object of `scene` ([`LeafCloud::from_grid`] of each file), placed.
+    pub fn from_scene(scene: &Scene<'_>) -> Self {
+        let mut cloud = SceneCloud {
+            points: Vec::new(),
+            attrs: Vec::new(),
+            objects: Vec::with_capacity(scene.len()),
+        };
+        for i in 0..scene.len() {
+            // The scene renderer skips such an object too (never, for an opened scene).
+            let (Some(grid), Some(rec)) = (scene.grid(i), scene.pack().object(i)) else {
+                continue;
+            };
+            let leaves = LeafCloud::from_grid(grid);
+            let placement = rec.placement;
+            let slot_bits = slot_bits(&rec);
+            let start = cloud.points.len();
+            cloud
+                .points
+                .extend(leaves.points.iter().map(|&p| placement.apply(p)));
+            cloud.attrs.extend(leaves.attrs.iter().map(|&a| {
+                let m = usize::from(a >> NORMAL_BITS) & (MAX_SLOTS - 1);
+                (a & ((1 << NORMAL_BITS) - 1)) | slot_bits[m]
+            }));
+            cloud.objects.push(CloudObject {
+                range: start..cloud.points.len(),
+                rotation: placement.rotation,
+                leaf_side: leaves.leaf_side * placement.scale,
+            });
+        }
+        cloud
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Renders one frame of `scene` (the one this cloud was made from) from `camera` with `opts`
+    /// (kernel, light and backface culling; the cutoff and shadows are ignored: every leaf is
+    /// drawn, unshadowed) into `out`, cleared first, with a caller-owned `table` that
+    /// [`Scene::update_table`] brings up to date. A point faces away when its world normal (its
+    /// normal code turned by its object's rotation) points away from the eye, exactly per point;
+    /// its splat is its leaf's bounding-sphere diameter `√3 · side · scale · f / z`; its depth is
+    /// mapped over [`Scene::depth_range`], the range the scene renderer's frames share. The time
+    /// covers the span the scene renderer's does: table update, setup, projection and raster.
+    /// `nodes_visited` counts every point, `culled` those in front of the near plane or off the
+    /// frame.
+    ///
+    /// # Panics
+    /// Never: a [`SceneTable`] has a slot for every slot a pack can have.
+    pub fn render(
+        &self,
+        scene: &Scene<'_>,
+        camera: &Camera,
+        opts: &SceneOptions,
+        table: &mut SceneTable,
+        out: &mut FrameBuffers,
+    ) -> FrameReport {
+        let t = Instant::now();
+        scene
+            .update_table(table, camera, opts.light_dir)
+            .expect("a scene table has MAX_SLOTS slots");
+        let range = scene.depth_range(camera);
+        let (z0, z_scale) = depth_map(range.near, range.far, camera.near);
+        let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+        fb.clear(0);
+        let mut stats = Stats {
+            nodes_visited: self.points.len() as u32,
+            ..Stats::default()
+        };
+        let frame = BruteFrame {
+            cam: camera,
+            z0,
+            z_scale,
+            table,
+            kernel: opts.kernel,
+            backface_culling: opts.backface_culling,
+        };
+        for o in &self.objects {
+            frame.draw(
+                PointRun {
+                    points: &self.points[o.range.clone()],
+                    attrs: &self.attrs[o.range.clone()],
+                    rotation: &o.rotation,
+                    size_k: 3f64.sqrt() * o.leaf_side * camera.focal_px * 16.0,
+                },
+                &mut fb,
+                &mut stats,
+            );
+        }
+        FrameReport {
+            stats,
+            time: t.elapsed(),
+        }
+    }
+}
+
+/// `slot << 13` of each file material index of an object: the table slot the scene renderer's
+/// slot sink (`core/src/scene/render.rs`, `slotted`) gives it, indices beyond the object's
+/// materials taking its last.
+fn slot_bits(rec: &ObjectRecord<'_>) -> [u16; MAX_SLOTS] {
+    let used = usize::from(rec.materials.max(1));
+    std::array::from_fn(|m| u16::from(rec.slots[m.min(used - 1)]) << NORMAL_BITS)
+}
+
+/// `(z0, scale)` spreading depth `(z − z0) · scale` over 0..=65534 for camera depths `lo..=hi`,
+/// `lo` at least the near plane (an empty or flat range still gets a finite scale).
+fn depth_map(lo: f64, hi: f64, near: f64) -> (f64, f64) {
+    let lo = lo.max(near);
+    let hi = hi.max(lo * (1.0 + 1e-9) + f64::MIN_POSITIVE);
+    (lo, 65534.0 / (hi - lo))
+}
+
+/// Points drawn with one normal rotation and one splat size: a [`LeafCloud`], or one object of a
+/// [`SceneCloud`].
+struct PointRun<'p> {
+    /// World positions.
+    points: &'p [Vec3],
+    /// Attributes; their material bits pick the shading table's slot.
+    attrs: &'p [u16],
+    /// Model-to-world rotation of the normal codes (row-major).
+    rotation: &'p [[f64; 3]; 3],
+    /// Splat diameter in Q4 pixels times camera depth: `√3 · leaf side (world) · f · 16`.
+    size_k: f64,
+}
+
+/// What every point of a frame is projected, shaded and depth-mapped with.
+struct BruteFrame<'f, const M: usize> {
+    cam: &'f Camera,
+    /// Depth `(z − z0) · z_scale`.
+    z0: f64,
+    z_scale: f64,
+    table: &'f ShadingTable<M>,
+    kernel: Kernel,
+    /// Skip points whose world normal faces away from the eye.
+    backface_culling: bool,
+}
+
+impl<const M: usize> BruteFrame<'_, M> {
+    /// Projects, culls and splats every point of `run` into `fb`, counting into `stats`
+    /// (`culled`, `backfacing`, `splats`; the caller counts `nodes_visited`). The one per-point
+    /// loop both clouds draw with.
+    fn draw(&self, run: PointRun<'_>, fb: &mut Framebuffer<'_>, stats: &mut Stats) {
+        let cam = self.cam;
+        let rot = run.rotation;
+        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
+        for (p, &attr) in run.points.iter().zip(run.attrs) {
+            let d = camera::sub(*p, cam.eye);
+            let z = camera::dot(d, cam.forward);
+            if z < cam.near {
+                stats.culled += 1;
+                continue;
+            }
+            let n = NORMALS_Q14[usize::from(attr) & (NORMAL_COUNT - 1)];
+            let n = n.map(f64::from);
+            // The world normal (with the identity, exactly the model normal).
+            let n = [0, 1, 2].map(|k| camera::dot(rot[k], n));
+            if self.backface_culling && camera::dot(n, d) > 0.0 {
+                stats.backfacing += 1;
+                continue;
+            }
+            let inv = cam.focal_px / z;
+            let sx = cx + camera::dot(d, cam.right) * inv;
+            let sy = cy - camera::dot(d, cam.up) * inv;
+            let size_q4 = run.size_k / z;
+            let r = size_q4 / 32.0 + 1.0;
+            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
+                stats.culled += 1;
+                continue;
+            }
+            let depth = ((z - self.z0) * self.z_scale).clamp(0.0, 65534.0) as u16;
+            fb.splat(
+                &Splat {
+                    x_q4: (sx * 16.0).round() as i32,
+                    y_q4: (sy * 16.0).round() as i32,
+                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
+                    depth,
+                    color: self.table.color(attr),
+                },
+                self.kernel,
+            );
+            stats.splats += 1;
+        }
     }
 }
 
@@ -284,5 +490,192 @@ mod tests {
         let s = r.stats;
         assert_eq!(s.culled + s.backfacing + s.splats, s.nodes_visited, "{s:?}");
         assert!(s.culled > 0, "{s:?}");
+    }
+
+    /// A small scene: a checkerboard ground, scaled and turned, a tree (bark and leaves) tilted,
+    /// turned and scaled, and a wall turned away from the view, so a wrong placement, normal
+    /// rotation, scale or slot shows. The orbit sphere is the tree's (the ground is not in bounds).
+    const SCENE_TOML: &str = r#"
+fov = 45.0
+
+[light]
+az = -40.0
+el = 55.0
+
+[bake]
+rho = 3
+min_cell_px = 0.0
+
+[materials.grass]
+color = [0.34, 0.50, 0.24]
+
+[materials.sand]
+color = [0.85, 0.75, 0.50]
+
+[materials.bark]
+color = [0.42, 0.30, 0.20]
+
+[materials.leaves]
+color = [0.25, 0.55, 0.18]
+specular = 0.3
+
+[[objects]]
+name = "ground"
+ground = { size = 2.0, tiles = 4 }
+materials = ["grass", "sand"]
+depth = 4
+scale = 1.3
+rotate = { yaw = 20.0 }
+in_bounds = false
+
+[[objects]]
+name = "tree"
+tree = { seed = 5, levels = 3, branches = 3 }
+materials = ["bark", "leaves"]
+depth = 4
+height = 1.1
+rotate = { yaw = 35.0, pitch = 25.0, roll = -15.0 }
+translate = [0.15, 0.0, -0.1]
+anchor = "base"
+
+# Seen from behind: its model normal (+Y) faces the eye, its world normal (-Z) away, so only a
+# backface test with world normals culls it (the scene renderer's conservative per-frame test
+# culls all of it too).
+[[objects]]
+name = "wall"
+ground = { size = 0.8 }
+material = "sand"
+depth = 4
+rotate = { pitch = -90.0 }
+translate = [-0.2, 0.4, -0.7]
+anchor = "center"
+
+# Behind the tree, facing the eye: only depths over the range all objects share put it behind.
+[[objects]]
+name = "backdrop"
+ground = { size = 0.9 }
+material = "grass"
+depth = 4
+rotate = { pitch = 90.0 }
+translate = [0.3, 0.5, -0.75]
+anchor = "center"
+"#;
+
+    fn small_pack() -> Vec<u8> {
+        let scene =
+            crate::scene::Scene::parse(std::path::Path::new("small.toml"), SCENE_TOML).unwrap();
+        crate::scene::bake::bake_scene(&scene, &Default::default())
+            .unwrap()
+            .bytes
+    }
+
+    fn open_scene(bytes: &[u8]) -> Scene<'_> {
+        let pack = pocketsplat_core::scene::Pack::open(bytes).unwrap();
+        Scene::open(pack, Verify::Full).unwrap()
+    }
+
+    #[test]
+    fn a_scene_cloud_holds_every_leaf_of_every_object_placed() {
+        let bytes = small_pack();
+        let scene = open_scene(&bytes);
+        let cloud = SceneCloud::from_scene(&scene);
+        assert_eq!(scene.len(), 4);
+        assert_eq!(cloud.objects.len(), scene.len());
+        let mut total = 0;
+        for (i, o) in cloud.objects.iter().enumerate() {
+            let grid = scene.grid(i).unwrap();
+            let rec = scene.pack().object(i).unwrap();
+            assert_eq!(o.range.start, total);
+            assert_eq!(o.range.len(), grid.leaf_samples() as usize, "object {i}");
+            total = o.range.end;
+            assert_eq!(o.rotation, rec.placement.rotation);
+            let model_leaf = LeafCloud::from_grid(grid).leaf_side;
+            assert!((o.leaf_side - model_leaf * rec.placement.scale).abs() < 1e-12);
+            // Placed: every leaf centre lies in the object's world box, widened by half a leaf's
+            // diagonal.
+            let b = scene.world_bounds(i).unwrap();
+            let slack = 0.5 * 3f64.sqrt() * o.leaf_side + 1e-9;
+            for p in &cloud.points[o.range.clone()] {
+                for k in 0..3 {
+                    assert!(
+                        p[k] > b[0][k] - slack && p[k] < b[1][k] + slack,
+                        "object {i}: {p:?} outside {b:?}"
+                    );
+                }
+            }
+            // Material bits are the object's slots.
+            let slots = &rec.slots[..usize::from(rec.materials)];
+            for &a in &cloud.attrs[o.range.clone()] {
+                assert!(
+                    slots.contains(&((a >> NORMAL_BITS) as u8)),
+                    "object {i}: {a:#x}"
+                );
+            }
+        }
+        let leaves: u64 = (0..scene.len())
+            .map(|i| u64::from(scene.grid(i).unwrap().leaf_samples()))
+            .sum();
+        assert_eq!(cloud.len() as u64, leaves);
+        assert_eq!(cloud.attrs.len(), cloud.len());
+    }
+
+    /// As [`matches_the_trigrid_drawing_all_leaves`], for a scene: the scene renderer at a cutoff
+    /// far below a pixel draws every object's leaves.
+    #[test]
+    fn matches_the_scene_renderer_drawing_all_leaves() {
+        use crate::scene::render::{render_pack, scene_table, PackSettings};
+        use pocketsplat_core::scene::PackShadows;
+
+        let bytes = small_pack();
+        let scene = open_scene(&bytes);
+        let cloud = SceneCloud::from_scene(&scene);
+        for kernel in [Kernel::Square, Kernel::Round] {
+            let settings = PackSettings {
+                cutoff_px: 0.01,
+                kernel,
+                shadows: Some(PackShadows::Off),
+                ..PackSettings::new(camera::View::new(30.0, 25.0, 2.2))
+            };
+            let mut real = FrameBuffers::new();
+            let r = render_pack(&scene, &settings, &mut real).unwrap();
+            let cam = settings.camera(&scene, [0.0; 3]);
+            let opts = settings.options(&scene);
+            let mut table = scene_table();
+            let mut brute = FrameBuffers::new();
+            let b = cloud.render(&scene, &cam, &opts, &mut table, &mut brute);
+            // The ground, the tree and the backdrop are drawn down to their leaves; the wall faces
+            // away.
+            for i in [0, 1, 3] {
+                let depth = scene.grid(i).unwrap().header().depth;
+                assert_eq!(r.stats.objects[i].max_level, depth, "object {i}");
+            }
+            assert_eq!(r.stats.objects[2].splats, 0, "the wall faces away");
+            assert_eq!(b.stats.nodes_visited as usize, cloud.len());
+            assert!(b.stats.splats > 0 && b.stats.splats <= cloud.len() as u32);
+            let s = b.stats;
+            assert_eq!(s.culled + s.backfacing + s.splats, s.nodes_visited, "{s:?}");
+            let covered = real.covered().iter().filter(|&&c| c).count();
+            assert!(
+                covered > real.pixels().len() / 5,
+                "{kernel:?}: the scene covers only {covered} pixels"
+            );
+            let rgb = |f: &FrameBuffers| -> Vec<[u8; 3]> {
+                f.pixels().iter().map(|&p| rgb565_to_rgb888(p)).collect()
+            };
+            let mismatch = coverage_mismatch(&real.covered(), &brute.covered());
+            let psnr = psnr_rgb8(&rgb(&real), &rgb(&brute));
+            let differ = real
+                .pixels()
+                .iter()
+                .zip(brute.pixels())
+                .filter(|(a, b)| a != b)
+                .count();
+            assert!(mismatch < 0.01, "{kernel:?}: coverage mismatch {mismatch}");
+            assert!(
+                differ < real.pixels().len() / 50,
+                "{kernel:?}: {differ} pixels differ"
+            );
+            assert!(psnr > 25.0, "{kernel:?}: PSNR {psnr} dB");
+        }
     }
 }
