@@ -21,8 +21,8 @@ pub mod write;
 
 pub use pack::{Pack, PackError};
 pub use render::{
-    ram_budget, render_scene, shading_table_bytes, RamBudget, Scene, SceneError, SceneOptions,
-    SceneStats,
+    ram_budget, render_scene, shading_table_bytes, slot_attr, slot_bits, RamBudget, Scene,
+    SceneError, SceneOptions, SceneStats,
 };
 
 use crate::camera::Placement;

@@ -19,7 +19,7 @@
 //! Setup uses floats, as every frame setup does; per splat the slot sink is integer only.
 
 use super::pack::Pack;
-use super::{PackShadows, MAX_OBJECTS, MAX_SLOTS};
+use super::{ObjectRecord, PackShadows, MAX_OBJECTS, MAX_SLOTS};
 use crate::camera::{self, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
 use crate::normal::NORMAL_BITS;
 use crate::raster::Kernel;
@@ -353,6 +353,28 @@ impl<'a> Scene<'a> {
     }
 }
 
+/// `slot << 13` for each file material index of an object: the slot of the scene's shading table
+/// its samples are shaded with; indices beyond the object's materials take its last (none: slot
+/// 0).
+pub fn slot_bits(rec: Option<&ObjectRecord<'_>>) -> [u16; MAX_SLOTS] {
+    core::array::from_fn(|m| {
+        let slot = rec.map_or(0, |r| {
+            let used = usize::from(r.materials.max(1));
+            r.slots[m.min(used - 1)]
+        });
+        u16::from(slot) << NORMAL_BITS
+    })
+}
+
+/// An attribute with its file material index replaced by its slot (`bits` from [`slot_bits`]): what
+/// the scene renderer hands its sink.
+#[deny(clippy::float_arithmetic)]
+#[inline(always)]
+pub fn slot_attr(bits: &[u16; MAX_SLOTS], attr: u16) -> u16 {
+    let m = usize::from(attr >> NORMAL_BITS) & (MAX_SLOTS - 1);
+    (attr & ((1 << NORMAL_BITS) - 1)) | bits[m]
+}
+
 /// Replaces a splat's file material index by the object's slot (per splat: one mask, one look-up).
 struct Slotted<'s, S> {
     inner: &'s mut S,
@@ -364,8 +386,7 @@ struct Slotted<'s, S> {
 impl<S: SplatSink> SplatSink for Slotted<'_, S> {
     #[inline(always)]
     fn splat(&mut self, s: &SampleSplat) {
-        let m = usize::from(s.attr >> NORMAL_BITS) & (MAX_SLOTS - 1);
-        let attr = (s.attr & ((1 << NORMAL_BITS) - 1)) | self.slot_bits[m];
+        let attr = slot_attr(&self.slot_bits, s.attr);
         self.inner.splat(&SampleSplat { attr, ..*s });
     }
 }
@@ -483,17 +504,9 @@ pub fn render_scene<S: SplatSink>(
 
 /// The slot sink of object `i` in front of `sink`.
 fn slotted<'s, S>(scene: &Scene<'_>, i: usize, sink: &'s mut S) -> Slotted<'s, S> {
-    let rec = scene.pack.object(i);
-    let slot_bits = core::array::from_fn(|m| {
-        let slot = rec.map_or(0, |r| {
-            let used = usize::from(r.materials.max(1));
-            r.slots[m.min(used - 1)]
-        });
-        u16::from(slot) << NORMAL_BITS
-    });
     Slotted {
         inner: sink,
-        slot_bits,
+        slot_bits: slot_bits(scene.pack.object(i).as_ref()),
     }
 }
 

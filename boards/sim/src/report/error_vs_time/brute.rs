@@ -20,9 +20,9 @@ use std::ops::Range;
 use std::time::Instant;
 
 use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
-use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_BITS, NORMAL_COUNT};
+use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
 use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
-use pocketsplat_core::scene::{ObjectRecord, Scene, SceneOptions, MAX_SLOTS};
+use pocketsplat_core::scene::{slot_attr, slot_bits, Scene, SceneOptions};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::TriGrid;
@@ -200,15 +200,14 @@ impl SceneCloud {
             };
             let leaves = LeafCloud::from_grid(grid);
             let placement = rec.placement;
-            let slot_bits = slot_bits(&rec);
+            let bits = slot_bits(Some(&rec));
             let start = cloud.points.len();
             cloud
                 .points
                 .extend(leaves.points.iter().map(|&p| placement.apply(p)));
-            cloud.attrs.extend(leaves.attrs.iter().map(|&a| {
-                let m = usize::from(a >> NORMAL_BITS) & (MAX_SLOTS - 1);
-                (a & ((1 << NORMAL_BITS) - 1)) | slot_bits[m]
-            }));
+            cloud
+                .attrs
+                .extend(leaves.attrs.iter().map(|&a| slot_attr(&bits, a)));
             cloud.objects.push(CloudObject {
                 range: start..cloud.points.len(),
                 rotation: placement.rotation,
@@ -286,14 +285,6 @@ impl SceneCloud {
             time: t.elapsed(),
         }
     }
-}
-
-/// `slot << 13` of each file material index of an object: the table slot the scene renderer's
-/// slot sink (`core/src/scene/render.rs`, `slotted`) gives it, indices beyond the object's
-/// materials taking its last.
-fn slot_bits(rec: &ObjectRecord<'_>) -> [u16; MAX_SLOTS] {
-    let used = usize::from(rec.materials.max(1));
-    std::array::from_fn(|m| u16::from(rec.slots[m.min(used - 1)]) << NORMAL_BITS)
 }
 
 /// `(z0, scale)` spreading depth `(z − z0) · scale` over 0..=65534 for camera depths `lo..=hi`,
@@ -607,7 +598,7 @@ anchor = "center"
             let slots = &rec.slots[..usize::from(rec.materials)];
             for &a in &cloud.attrs[o.range.clone()] {
                 assert!(
-                    slots.contains(&((a >> NORMAL_BITS) as u8)),
+                    slots.contains(&((a >> pocketsplat_core::normal::NORMAL_BITS) as u8)),
                     "object {i}: {a:#x}"
                 );
             }

@@ -1,7 +1,8 @@
 //! A scene file (`.toml`) as a subject of the report: its named views, the f64 reference renderer of
 //! every placed mesh of the scene (with exact ray-cast shadows from the objects that cast them), and
 //! the scene baked as a tri-grid pack (ρ = 3, what `pocketsplat bake` writes and the firmware draws)
-//! and as an octree pack (ρ = 2, each object at the nearest resolution).
+//! and as an octree pack (ρ = 2, each object at the nearest resolution), and the brute force over
+//! every leaf of the tri-grid pack.
 //!
 //! A `.pack` alone cannot be a subject: it holds the baked grids, not the meshes the reference is
 //! drawn from.
@@ -13,6 +14,7 @@ use pocketsplat_core::scene::{Pack, PackShadows, Scene as PackScene, SceneOption
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::Verify;
 
+use super::brute::SceneCloud;
 use super::{FrameConfig, Method, RefShadows, Reference, Subject};
 use crate::bvh::Bvh;
 use crate::reference::{render_reference_shadowed, ShadowLight, ShadowRays};
@@ -173,14 +175,65 @@ impl Method for PackMethod<'_> {
     }
 }
 
+/// The brute-force baseline over every leaf of the tri-grid pack ([`SceneCloud`]).
+pub struct BruteSceneMethod<'a> {
+    scene: PackScene<'a>,
+    cloud: SceneCloud,
+    table: Box<SceneTable>,
+}
+
+impl<'a> BruteSceneMethod<'a> {
+    /// The leaves of every object of `pack`'s scene, placed.
+    pub fn new(pack: &PackMethod<'a>) -> Self {
+        Self {
+            cloud: SceneCloud::from_scene(pack.scene()),
+            scene: pack.scene().clone(),
+            table: scene_table(),
+        }
+    }
+}
+
+impl Method for BruteSceneMethod<'_> {
+    fn name(&self) -> &str {
+        "brute"
+    }
+    fn detail(&self) -> String {
+        format!(
+            "every leaf of the tri-grid pack's {} objects, {} points",
+            self.cloud.objects.len(),
+            self.cloud.len()
+        )
+    }
+    fn uses_cutoff(&self) -> bool {
+        false
+    }
+    fn supports(&self, shadows: ShadowMode) -> bool {
+        shadows == ShadowMode::Off
+    }
+    fn render(
+        &mut self,
+        view: View,
+        cfg: &FrameConfig,
+        out: &mut FrameBuffers,
+    ) -> Result<FrameReport> {
+        let s = PackMethod::settings(view, cfg);
+        let cam = s.camera(&self.scene, [0.0; 3]);
+        let opts = s.options(&self.scene);
+        Ok(self
+            .cloud
+            .render(&self.scene, &cam, &opts, &mut self.table, out))
+    }
+}
+
 /// A scene as a subject: its named views, the reference of its meshes, the tri-grid and octree
-/// packs. `name` titles the outputs.
+/// packs and the brute force over the tri-grid pack's leaves. `name` titles the outputs.
 ///
 /// # Errors
 /// When a baked pack does not open.
 pub fn scene_subject<'a>(name: &str, bakes: &'a SceneBakes) -> Result<Subject<'a>> {
     let trigrid = PackMethod::new("trigrid", &bakes.trigrid.bytes)?;
     let octree = PackMethod::new("octree", &bakes.octree.bytes)?;
+    let brute = BruteSceneMethod::new(&trigrid);
     // The reference sees what the pack's frames see: its sphere, field of view and light.
     let frame = PackSettings::new(View::new(0.0, 0.0, 1.0));
     let light = SceneOptions::of(trigrid.scene().pack()).light_dir;
@@ -214,7 +267,7 @@ pub fn scene_subject<'a>(name: &str, bakes: &'a SceneBakes) -> Result<Subject<'a
                 },
             })
         }),
-        methods: vec![Box::new(trigrid), Box::new(octree)],
+        methods: vec![Box::new(trigrid), Box::new(octree), Box::new(brute)],
     })
 }
 
