@@ -132,9 +132,9 @@ fn firmware_scene_frames_are_the_simulators_frames() {
 }
 
 /// What coarser cutoffs cost in image quality at the `std` view, one-pass shadows: PSNR of the
-/// firmware's 2 px and 4 px frames against its 1 px frame (the scene has no float reference render
-/// yet, so the 1 px frame stands in for it). Printed for the figures; asserted only to fall
-/// as the cutoff grows.
+/// firmware's frames at each coarser cutoff of `SCENE_CUTOFFS_PX` (2, 3, 4, 6 and 8 px) against
+/// its 1 px frame (the scene has no float reference render yet, so the 1 px frame stands in for
+/// it). Printed for the figures; asserted only to fall as the cutoff grows.
 #[test]
 fn coarser_cutoffs_lose_psnr_against_1_px_at_std() {
     use pocketsplat_core::shade::rgb565_to_rgb888;

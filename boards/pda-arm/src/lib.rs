@@ -12,7 +12,8 @@
 //! - [`stream`] (`stream` feature): the bunny streamed from a FAT image through a 64 KB block cache,
 //!   the frames drawn by the same code as a resident model's ([`render_stream_view`]).
 //! - `scene` (feature `scene`): the named views of a resident scene pack (`.pack`, told apart by
-//!   its magic) with the pack's light and shadows at a few cutoffs, as the simulator draws them.
+//!   its magic) with the pack's light and shadows at each cutoff of `scene::SCENE_CUTOFFS_PX`
+//!   (1, 2, 3, 4, 6 and 8 px), as the simulator draws them.
 //! - [`render_test_frame`]: a test pattern (an integer-shaded sphere over a gradient-and-xor
 //!   background), drawn when the firmware is built without a model.
 //!

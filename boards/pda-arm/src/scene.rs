@@ -25,8 +25,10 @@ use pocketsplat_core::splat::Stats;
 use crate::views::draw_shaded;
 use crate::{Phase, Shadows, HEIGHT, WIDTH};
 
-/// LOD cutoffs the firmware renders each view of a pack at, pixels.
-pub const SCENE_CUTOFFS_PX: [u8; 3] = [1, 2, 4];
+/// LOD cutoffs the firmware renders each view of a pack at, pixels, finest first (the first is the
+/// reference the coarser frames' PSNR is measured against). 3 and 6 px are there so that a curve
+/// of error against instructions has points between the powers of two.
+pub const SCENE_CUTOFFS_PX: [u8; 6] = [1, 2, 3, 4, 6, 8];
 
 /// The largest shadow map side a firmware's scene may ask for, texels (the Big Scene's: 512² ×
 /// 2 bytes = 512 KB of RAM). A pack asking for more is refused per frame
@@ -220,6 +222,27 @@ mod tests {
             ("top", 4, Shadows::OnePass, 0x0012_3456)
         );
         assert_eq!((parsed.splats, parsed.nodes), (7, 9));
+    }
+
+    #[test]
+    fn every_scene_cutoff_reads_back_from_its_frame_line() {
+        for &cutoff_px in &SCENE_CUTOFFS_PX {
+            let report = SceneFrameReport {
+                view_name: "std",
+                spec: SceneFrameSpec { view: 0, cutoff_px },
+                shadows: Shadows::OnePass,
+                crc: 1,
+                stats: Stats::default(),
+                table_rebuilt: false,
+            };
+            let line = report.to_string();
+            let parsed = FrameLine::parse(&line).unwrap();
+            assert_eq!(parsed.cutoff_px, cutoff_px, "{line}");
+        }
+        assert!(
+            SCENE_CUTOFFS_PX.windows(2).all(|w| w[0] < w[1]),
+            "finest first, each cutoff once: {SCENE_CUTOFFS_PX:?}"
+        );
     }
 
     #[test]

@@ -513,8 +513,9 @@ pub struct Drawn {
     pub table_rebuilt: bool,
 }
 
-/// The splat kernel of every frame (`pocketsplat render`'s default).
-const KERNEL: Kernel = Kernel::Square;
+/// The splat kernel of every frame of a model (`pocketsplat render`'s default; a scene's is its
+/// `SceneOptions`'). Public so that benchmarks can say which kernel their frames were drawn with.
+pub const KERNEL: Kernel = Kernel::Square;
 
 /// Renders `model` seen from the orbit `view` at `cutoff_px` into `targets` with the defaults of
 /// `pocketsplat render` (square kernel, default material and light, 45° field of view). `mark` is

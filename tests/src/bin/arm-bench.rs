@@ -4,7 +4,7 @@
 //! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg|FILE.qs]...
 //!     [--format tg|qsplat|both] [--target TRIPLE]... [--no-shadows] [--json]
 //!     [--profile VIEW:CUTOFF:MODE]
-//! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--target TRIPLE]...
+//! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--target TRIPLE]... [--json]
 //! ```
 //!
 //! Builds the firmware with each model linked into PSRAM (default: the bunny, baked into
@@ -23,18 +23,32 @@
 //!
 //! `--big-scene` benchmarks the Big Scene instead (`boards/sim/scenes/big.toml` baked into
 //! `target/arm/models/big.pack`, firmware with `scene` and `shadows`): every named view of the pack
-//! at each cutoff with its one-pass shadows, CRCs checked against the host, instructions per frame
-//! by phase, and each frame's PSNR against the same view at 1 px (the scene has no float reference
-//! render yet).
+//! at each cutoff of `SCENE_CUTOFFS_PX` (1, 2, 3, 4, 6 and 8 px) with its one-pass shadows, CRCs
+//! checked against the host, instructions per frame by phase, and each frame's PSNR against the
+//! same view at 1 px (the scene has no float reference render yet). The model-only options
+//! (`--model`, `--format`, `--no-shadows`, `--profile`) are refused with it.
 //!
-//! `--json` prints one JSON object per frame instead. `--profile std:1:off` also profiles that
-//! frame's traversal by function, for each model (needs `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
+//! `--json` prints one JSON object per frame instead, one line each, and nothing else on stdout
+//! (progress goes to stderr), for the error-vs-time report to match against its own frames by
+//! model file CRC, view, cutoff, shadows and kernel. The keys, for models and scenes alike:
+//! `model` (file name), `model_crc` (CRC-32 of the file linked into the firmware, `0x…`), `target`,
+//! `build` (the firmware variant), `view`, `cutoff_px`, `shadows` (`off`, `one-pass`, `two-pass`:
+//! as the frame ran), `kernel` (`square` or `round`), `crc` (of the frame), `splats`, `nodes`,
+//! `instructions` and by phase `setup`, `table`, `clear`, `traverse`, `traverse_per_node`,
+//! `traverse_per_splat`, `fps_200mhz`, `flash_bytes`, `ram_bytes`; a scene's frames add
+//! `psnr_vs_finest_db` (`null` for the 1 px frames themselves, which are their own reference).
+//!
+//! `--profile std:1:off` also profiles that frame's traversal by function, for each model (needs
+//! `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 use anyhow::{bail, ensure, Context, Result};
+use pocketsplat_core::crc::crc32;
+use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::Verify;
 use pocketsplat_pda::{frame_specs_for, Format, FrameReport, FrameSpec, Model, Phase, Shadows};
 use pocketsplat_tests::arm::{
@@ -58,11 +72,13 @@ struct Args {
     json: bool,
     profile: Option<FrameSpec>,
     big_scene: bool,
+    /// The model-only options given, to refuse them with `--big-scene`.
+    model_only: Vec<String>,
 }
 
 const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|qsplat|both] \
                      [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE] | \
-                     --big-scene [--target TRIPLE]...";
+                     --big-scene [--target TRIPLE]... [--json]";
 
 fn parse_args() -> Result<Args> {
     let mut args = Args {
@@ -73,6 +89,7 @@ fn parse_args() -> Result<Args> {
         json: false,
         profile: None,
         big_scene: false,
+        model_only: Vec::new(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -80,6 +97,12 @@ fn parse_args() -> Result<Args> {
             it.next()
                 .with_context(|| format!("{a} needs a value\n{USAGE}"))
         };
+        if matches!(
+            a.as_str(),
+            "--model" | "--format" | "--no-shadows" | "--profile"
+        ) {
+            args.model_only.push(a.clone());
+        }
         match a.as_str() {
             "--model" => args.models.push(value()?.into()),
             "--format" => {
@@ -102,6 +125,12 @@ fn parse_args() -> Result<Args> {
             }
             _ => bail!("unknown argument {a}\n{USAGE}"),
         }
+    }
+    if args.big_scene && !args.model_only.is_empty() {
+        bail!(
+            "--big-scene benchmarks the Big Scene only: {} do not apply to it\n{USAGE}",
+            args.model_only.join(", ")
+        );
     }
     if args.targets.is_empty() {
         args.targets = BENCH_TARGETS.map(str::to_owned).to_vec();
@@ -232,28 +261,77 @@ fn print_table(target: &str, model: &str, rows: &[Row]) {
     }
 }
 
-fn json_row(model: &str, target: &str, r: &Row) -> serde_json::Value {
-    let (s, c) = (&r.report, &r.cost);
+/// A benchmarked frame as its JSON row tells it, a model's or a scene's.
+struct JsonFrame<'a> {
+    /// The model's or pack's file name.
+    model: &'a str,
+    /// CRC-32 of that file's bytes, the ones linked into the firmware.
+    model_crc: u32,
+    target: &'a str,
+    build: &'a str,
+    view: &'a str,
+    cutoff_px: u8,
+    /// As the frame ran.
+    shadows: Shadows,
+    kernel: Kernel,
+    /// The frame's CRC.
+    crc: u32,
+    stats: Stats,
+    cost: FrameCost,
+    memory: Memory,
+}
+
+fn kernel_name(k: Kernel) -> &'static str {
+    match k {
+        Kernel::Square => "square",
+        Kernel::Round => "round",
+    }
+}
+
+/// The JSON object of one frame (the keys the module doc lists, but a scene's PSNR).
+fn json_frame(f: &JsonFrame<'_>) -> serde_json::Value {
+    let c = &f.cost;
     json!({
-        "model": model,
-        "target": target,
-        "build": r.build,
-        "view": s.spec.view_name(),
-        "cutoff_px": s.spec.cutoff_px,
-        "shadows": s.spec.shadows.name(),
-        "crc": format!("{:#010x}", s.crc),
-        "splats": s.stats.splats,
-        "nodes": s.stats.nodes_visited,
+        "model": f.model,
+        "model_crc": format!("{:#010x}", f.model_crc),
+        "target": f.target,
+        "build": f.build,
+        "view": f.view,
+        "cutoff_px": f.cutoff_px,
+        "shadows": f.shadows.name(),
+        "kernel": kernel_name(f.kernel),
+        "crc": format!("{:#010x}", f.crc),
+        "splats": f.stats.splats,
+        "nodes": f.stats.nodes_visited,
         "instructions": c.frame(),
         "setup": c.setup,
         "table": c.table,
         "clear": c.clear,
         "traverse": c.traverse,
-        "traverse_per_node": per(c.traverse, s.stats.nodes_visited),
-        "traverse_per_splat": per(c.traverse, s.stats.splats),
+        "traverse_per_node": per(c.traverse, f.stats.nodes_visited),
+        "traverse_per_splat": per(c.traverse, f.stats.splats),
         "fps_200mhz": CLOCK_HZ / c.frame() as f64,
-        "flash_bytes": r.memory.flash,
-        "ram_bytes": r.memory.ram,
+        "flash_bytes": f.memory.flash,
+        "ram_bytes": f.memory.ram,
+    })
+}
+
+/// The JSON row of a model's frame.
+fn json_row(model: &Bench, target: &str, r: &Row) -> serde_json::Value {
+    let s = &r.report;
+    json_frame(&JsonFrame {
+        model: &model.name,
+        model_crc: model.crc,
+        target,
+        build: &r.build,
+        view: s.spec.view_name(),
+        cutoff_px: s.spec.cutoff_px,
+        shadows: s.spec.shadows,
+        kernel: pocketsplat_pda::views::KERNEL,
+        crc: s.crc,
+        stats: s.stats,
+        cost: r.cost,
+        memory: r.memory,
     })
 }
 
@@ -378,10 +456,11 @@ fn strip_generics(s: &str) -> String {
     out
 }
 
-/// One model to bench: its file, bytes and name.
+/// One model to bench: its file, bytes, their CRC-32 and its name.
 struct Bench {
     path: PathBuf,
     bytes: Vec<u8>,
+    crc: u32,
     name: String,
 }
 
@@ -495,7 +574,7 @@ fn run() -> Result<()> {
         "qemu-system-arm is needed (apt-get install qemu-system-arm)"
     );
     if args.big_scene {
-        return big_scene(&args.targets);
+        return big_scene(&args.targets, args.json);
     }
     let paths: Vec<PathBuf> = if args.models.is_empty() {
         args.formats
@@ -515,7 +594,13 @@ fn run() -> Result<()> {
         .map(|path| {
             let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
             let name = model_name(&path);
-            Ok(Bench { path, bytes, name })
+            let crc = crc32(&bytes);
+            Ok(Bench {
+                path,
+                bytes,
+                crc,
+                name,
+            })
         })
         .collect::<Result<_>>()?;
     let models: Vec<Model<'_>> = benches
@@ -542,7 +627,7 @@ fn run() -> Result<()> {
             let Benched { rows, builds } = bench_model(target, b, model, &args, &counter)?;
             if args.json {
                 for r in &rows {
-                    println!("{}", json_row(&b.name, target, r));
+                    println!("{}", json_row(b, target, r));
                 }
             } else {
                 print_table(target, &b.name, &rows);
@@ -597,9 +682,10 @@ fn model_name(path: &Path) -> String {
     )
 }
 
-/// `--big-scene`: the Big Scene's frames on each target, with their cost and PSNR against 1 px.
-fn big_scene(targets: &[String]) -> Result<()> {
-    use pocketsplat_core::scene::{Pack, Scene};
+/// `--big-scene`: the Big Scene's frames on each target, with their cost and PSNR against 1 px, as
+/// a table or (`json`) one JSON object per frame.
+fn big_scene(targets: &[String], json: bool) -> Result<()> {
+    use pocketsplat_core::scene::{Pack, Scene, SceneOptions};
     use pocketsplat_core::shade::rgb565_to_rgb888;
     use pocketsplat_pda::scene::scene_frame_specs;
     use pocketsplat_sim::metrics::psnr_rgb8;
@@ -607,10 +693,12 @@ fn big_scene(targets: &[String]) -> Result<()> {
 
     let path = baked_big_scene()?.context("a scan is missing (set POCKETSPLAT_MODELS)")?;
     let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
+    let (name, model_crc) = (model_name(&path), crc32(&bytes));
     let scene = Scene::open(
         Pack::open(&bytes).map_err(anyhow::Error::msg)?,
         Verify::Full,
     )?;
+    let kernel = SceneOptions::of(scene.pack()).kernel;
     // PSNR of each frame against its view at the finest cutoff (the first of each view).
     let mut host = HostSceneFrames::new();
     let rgb = |h: &HostSceneFrames| -> Vec<[u8; 3]> {
@@ -654,6 +742,29 @@ fn big_scene(targets: &[String]) -> Result<()> {
             "one counted frame per frame line"
         );
         let (memory, stack) = check_memory(&run, &elf)?;
+        if json {
+            let build = fw.name();
+            for ((r, &cost), &p) in reports.iter().zip(&costs).zip(&psnr) {
+                let mut row = json_frame(&JsonFrame {
+                    model: &name,
+                    model_crc,
+                    target,
+                    build: &build,
+                    view: r.view_name,
+                    cutoff_px: r.spec.cutoff_px,
+                    shadows: r.shadows,
+                    kernel,
+                    crc: r.crc,
+                    stats: r.stats,
+                    cost,
+                    memory,
+                });
+                // Infinite for the finest frame, its own reference: JSON has no infinity.
+                row["psnr_vs_finest_db"] = json!(p.is_finite().then_some(p));
+                println!("{row}");
+            }
+            continue;
+        }
         println!(
             "\n{target}, Big Scene ({} B pack): instructions per frame (exact, QEMU TCG plugin); \
              PSNR against the view at 1 px",
