@@ -107,6 +107,23 @@ fn ranges(curves: &[Curve]) -> ((f64, f64), (f64, f64)) {
     ((x0, x1), ((y0 - pad).floor(), (y1 + pad).ceil()))
 }
 
+/// Ticks at 1, 2 and 5 times each power of ten within `lo..=hi` (plotters' own log axis labels only
+/// powers of ten, so a range within one or two decades would show one or two labels).
+fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut decade = 10f64.powi(lo.log10().floor() as i32);
+    while decade <= hi {
+        for m in [1.0, 2.0, 5.0] {
+            let t = m * decade;
+            if (lo..=hi).contains(&t) {
+                out.push(t);
+            }
+        }
+        decade *= 10.0;
+    }
+    out
+}
+
 fn draw(
     buf: &mut [u8],
     title: &str,
@@ -121,7 +138,10 @@ fn draw(
         .margin(16)
         .x_label_area_size(48)
         .y_label_area_size(64)
-        .build_cartesian_2d((x0..x1).log_scale(), y0..y1)?;
+        .build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(ticks_125(x0, x1)),
+            y0..y1,
+        )?;
     chart
         .configure_mesh()
         .x_desc(x_desc)
@@ -210,6 +230,12 @@ mod tests {
             .count();
         assert!(dark > 2000, "{dark} dark pixels");
         assert!(count([255, 255, 255]) > img.pixels.len() / 2);
+    }
+
+    #[test]
+    fn log_ticks_are_one_two_five_per_decade() {
+        assert_eq!(ticks_125(8.0, 450.0), vec![10.0, 20.0, 50.0, 100.0, 200.0]);
+        assert_eq!(ticks_125(0.3, 3.0), vec![0.5, 1.0, 2.0]);
     }
 
     #[test]
