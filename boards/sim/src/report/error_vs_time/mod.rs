@@ -14,10 +14,12 @@
 //!
 //! A subject is a list of named views, a reference render function and a list of [`Method`]s:
 //! - a mesh ([`mesh_subject`]: tri-grid, octree, QSplat and brute force over the four standard
-//!   views; shadowed frames are compared with the unshadowed reference);
+//!   views);
 //! - a scene file ([`scene::scene_subject`]: the scene baked as a tri-grid pack and an octree pack
-//!   over its named views; the reference casts exact shadow rays from the objects that cast
-//!   shadows).
+//!   over its named views, and the brute force over the tri-grid pack's leaves).
+//!
+//! Shadowed frames are compared with a reference that casts exact shadow rays (against the mesh, or
+//! the scene's objects that cast shadows).
 
 pub mod arm;
 pub mod brute;
@@ -39,11 +41,12 @@ use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::shade::{rgb565_to_rgb888, ShadingTable};
 use pocketsplat_core::tg::{TriGrid, Verify};
 
+use crate::bvh::Bvh;
 use crate::cmd::bake::bake_mesh;
 use crate::fsutil::write_atomic;
 use crate::metrics::{coverage_mismatch, psnr_rgb8};
 use crate::qsplat::render_qs_with;
-use crate::reference::{render_reference, RefImage};
+use crate::reference::{render_reference_shadowed, RefImage, ShadowLight, ShadowRays};
 use crate::render::{render_tg_with, FrameBuffers, FrameReport, Settings, ShadowMode};
 use crate::scene::bake::depth_near;
 
@@ -530,6 +533,8 @@ pub struct MeshBakes {
     pub octree: Vec<u8>,
     /// QSplat file (one leaf per vertex, whatever the depth).
     pub qsplat: Vec<u8>,
+    /// The mesh's hierarchy, for the reference's shadow rays.
+    pub bvh: Bvh,
 }
 
 impl MeshBakes {
@@ -550,6 +555,7 @@ impl MeshBakes {
             qsplat: bake_qs(mesh, &QsBakeOptions::default())
                 .map_err(|e| anyhow::anyhow!("cannot bake QSplat: {e}"))?
                 .bytes,
+            bvh: Bvh::new(mesh),
         })
     }
 }
@@ -575,20 +581,30 @@ pub fn mesh_subject<'a>(
             .map(|&(n, v)| (n.to_owned(), v))
             .collect(),
         shadows: ShadowMode::Off,
-        reference: Box::new(move |view, _shadows| {
+        reference: Box::new(move |view, with_shadows| {
             let s = Settings {
                 view,
                 ..Settings::default()
             };
-            let image = render_reference(
+            let light = s.light_dir();
+            let rays = ShadowRays {
+                bvh: &bakes.bvh,
+                light: ShadowLight::Directional(light),
+            };
+            let image = render_reference_shadowed(
                 mesh,
                 &s.camera(mesh.bounds_f32()),
                 &[s.material],
-                s.light_dir(),
+                light,
+                with_shadows.then_some(&rays),
             );
             Ok(Reference {
                 image,
-                shadows: RefShadows::None,
+                shadows: if with_shadows {
+                    RefShadows::RayCast
+                } else {
+                    RefShadows::None
+                },
             })
         }),
         methods: vec![
@@ -1047,7 +1063,7 @@ fn markdown(
     match shadow_ref {
         Some("unshadowed") => md.push_str(
             "Shadowed frames are compared with the **unshadowed** reference (the reference \
-             renderer does not cast shadow rays in this build), so their PSNR also counts the \
+             renderer casts no shadow rays for this subject), so their PSNR also counts the \
              shadows themselves as error.\n",
         ),
         Some(r) => {
