@@ -9,7 +9,7 @@
 
 use anyhow::{anyhow, Context, Result};
 use pocketsplat_core::bake::TriMesh;
-use pocketsplat_core::camera::View;
+use pocketsplat_core::camera::{Camera, View};
 use pocketsplat_core::scene::{Pack, PackShadows, Scene as PackScene, SceneOptions};
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::Verify;
@@ -120,16 +120,18 @@ impl<'a> PackMethod<'a> {
     pub fn scene(&self) -> &PackScene<'a> {
         &self.scene
     }
+}
 
-    /// The settings of a frame: the pack's light and field of view, the frame's knobs.
-    fn settings(view: View, cfg: &FrameConfig) -> PackSettings {
-        PackSettings {
-            cutoff_px: cfg.cutoff_px,
-            kernel: cfg.kernel,
-            shadows: Some(pack_shadows(cfg.shadows)),
-            ..PackSettings::new(view)
-        }
-    }
+/// The camera and options of a frame of `scene`: the pack's light and field of view, the frame's
+/// knobs.
+fn frame(scene: &PackScene<'_>, view: View, cfg: &FrameConfig) -> (Camera, SceneOptions) {
+    let s = PackSettings {
+        cutoff_px: cfg.cutoff_px,
+        kernel: cfg.kernel,
+        shadows: Some(pack_shadows(cfg.shadows)),
+        ..PackSettings::new(view)
+    };
+    (s.camera(scene, [0.0; 3]), s.options(scene))
 }
 
 impl Method for PackMethod<'_> {
@@ -168,9 +170,7 @@ impl Method for PackMethod<'_> {
         cfg: &FrameConfig,
         out: &mut FrameBuffers,
     ) -> Result<FrameReport> {
-        let s = Self::settings(view, cfg);
-        let cam = s.camera(&self.scene, [0.0; 3]);
-        let opts: SceneOptions = s.options(&self.scene);
+        let (cam, opts) = frame(&self.scene, view, cfg);
         Ok(render_pack_from(&self.scene, &cam, &opts, &mut self.table, out, |_, _| {})?.report())
     }
 }
@@ -216,9 +216,7 @@ impl Method for BruteSceneMethod<'_> {
         cfg: &FrameConfig,
         out: &mut FrameBuffers,
     ) -> Result<FrameReport> {
-        let s = PackMethod::settings(view, cfg);
-        let cam = s.camera(&self.scene, [0.0; 3]);
-        let opts = s.options(&self.scene);
+        let (cam, opts) = frame(&self.scene, view, cfg);
         Ok(self
             .cloud
             .render(&self.scene, &cam, &opts, &mut self.table, out))
