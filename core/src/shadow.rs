@@ -56,7 +56,7 @@ use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
 use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
-use crate::tg::frame::{TgFrame, MAX_SLOTS};
+use crate::tg::frame::{slot_dots, TgFrame, MAX_SLOTS};
 use crate::tg::read::{Header, TriGrid};
 use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks, SlotOrder};
 use crate::tg::MAX_LEVELS;
@@ -250,12 +250,6 @@ fn across(axis: Vec3) -> (Vec3, Vec3) {
     (u, camera::cross(axis, u))
 }
 
-/// Offset of child slot `s` of a cell of side `parent` from the cell's centre.
-fn slot_offset(s: usize, rho: usize, parent: f64) -> Vec3 {
-    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
-    core::array::from_fn(|k| ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent)
-}
-
 /// The ρ³ slots in order of their centre's distance along `travel` (the light's direction of
 /// travel); ties (a light along an axis) keep slot order.
 fn light_order(rho: usize, travel: Vec3) -> [u8; MAX_SLOTS] {
@@ -350,10 +344,9 @@ impl LightFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(s, rho, parent);
-                    *d = core::array::from_fn(|k| to_i(camera::dot(axes[k], off) * scales[k]));
-                }
+                slot_dots(&axes, rho, parent, &mut disp[level], |k, x| {
+                    to_i(x * scales[k])
+                });
             }
             let h = 0.5 * cell;
             ext[level] = core::array::from_fn(|k| {
@@ -371,7 +364,7 @@ impl LightFrame {
         self.root = root;
         self.bias = bias;
         self.to_light_q14 = travel.map(|t| to_i(-t * 16384.0));
-        self.tan_q8 = tan_table();
+        self.tan_q8 = TAN_Q8;
         self.reach = reach;
         self.texel_q16 = 0;
         self.stop_level = stop_level;
@@ -460,10 +453,7 @@ impl LightFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (slot, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(slot, rho, parent);
-                    *d = rows.map(|r| to_i(camera::dot(r, off)));
-                }
+                slot_dots(&rows, rho, parent, &mut disp[level], |_, x| to_i(x));
             }
             let h = 0.5 * cell * s;
             let margin = level as i32 + 1;
@@ -510,7 +500,7 @@ impl LightFrame {
             ext,
             bias,
             to_light_q14: to_light.map(to_i),
-            tan_q8: tan_table(),
+            tan_q8: TAN_Q8,
             reach,
             // A texel at distance W spans W·2·tan/N across.
             texel_q16: to_i(2.0 * tan / n * 65536.0),
@@ -619,7 +609,19 @@ fn directional_reach(
     reach
 }
 
-/// `tan θ` in Q8 for `cos θ = i / 64`, the cosine floored at 1/8 (so the tangent is at most 8).
+/// `tan θ` in Q8 for `cos θ = i / 64`, the cosine floored at 1/8 (so the tangent is at most 8):
+/// [`tan_table`]'s values, written out because every light frame (each object of a scene, each
+/// frame) needs them and 65 soft-float square roots and divisions cost ~50 k instructions on a
+/// Cortex-M3 each time. A test checks them against the formula.
+const TAN_Q8: [i32; 65] = [
+    2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 1802, 1618, 1467, 1341, 1234, 1142, 1062,
+    991, 929, 873, 823, 778, 737, 699, 665, 633, 603, 576, 550, 526, 504, 482, 462, 443, 425, 408,
+    392, 376, 361, 347, 333, 320, 307, 294, 282, 270, 259, 248, 237, 226, 215, 205, 194, 184, 173,
+    163, 152, 142, 131, 119, 108, 95, 81, 66, 46, 0,
+];
+
+/// [`TAN_Q8`] from its formula.
+#[cfg(test)]
 fn tan_table() -> [i32; 65] {
     let mut t = [0i32; 65];
     for (i, b) in t.iter_mut().enumerate() {
@@ -972,10 +974,13 @@ impl LightFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(s, rho, parent);
-                    *d = core::array::from_fn(|k| to_i(camera::dot(dir(k), off)));
-                }
+                slot_dots(
+                    &[dir(0), dir(1), dir(2)],
+                    rho,
+                    parent,
+                    &mut disp[level],
+                    |_, x| to_i(x),
+                );
             }
             let h = 0.5 * cell;
             ext[level] =
@@ -995,7 +1000,7 @@ impl LightFrame {
             ext,
             bias,
             to_light_q14: travel.map(|t| to_i(-t * 16384.0)),
-            tan_q8: tan_table(),
+            tan_q8: TAN_Q8,
             reach,
             texel_q16: 0,
             stop_level,
@@ -1074,6 +1079,11 @@ mod tests {
     fn ijk(s: u8) -> [i32; 3] {
         let s = i32::from(s);
         [s % 3, s / 3 % 3, s / 9]
+    }
+
+    #[test]
+    fn the_written_out_tangents_are_the_formula_s() {
+        assert_eq!(TAN_Q8, tan_table());
     }
 
     #[test]
