@@ -363,7 +363,7 @@ impl LightFrame {
         let reach = directional_reach(ext, header.depth, extent / map_size as f64 * s_d);
         self.root = root;
         self.bias = bias;
-        self.to_light_q14 = travel.map(|t| to_i(-t * 16384.0));
+        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
         self.tan_q8 = TAN_Q8;
         self.reach = reach;
         self.texel_q16 = 0;
@@ -499,7 +499,7 @@ impl LightFrame {
             disp,
             ext,
             bias,
-            to_light_q14: to_light.map(to_i),
+            to_light_q14: [0; 3], // with the empty facing table: set below
             tan_q8: TAN_Q8,
             reach,
             // A texel at distance W spans W·2·tan/N across.
@@ -513,14 +513,21 @@ impl LightFrame {
             },
             derived: Derived::EMPTY,
         };
+        frame.set_to_light(to_light.map(to_i));
         frame.derive();
         Ok(frame)
     }
 
-    /// The tables a sample's test looks up, from the light's direction, biases and reaches:
-    /// integer arithmetic only, so host and ARM make the same ones.
-    fn derive(&mut self) {
-        let l = self.to_light_q14;
+    /// Sets the direction to the light (model frame, Q14) and the facing table, which depends on
+    /// it alone. The table always holds the facing of `to_light_q14` (all zeros for
+    /// [`LightFrame::UNSET`]'s zero direction, as this loop makes them), so a frame set in place
+    /// for an object whose rotation gives the same direction as the last one's keeps its table:
+    /// 8192 normals, ~0.1 M instructions on a Cortex-M3, saved for every such object of a scene.
+    fn set_to_light(&mut self, l: [i32; 3]) {
+        if l == self.to_light_q14 {
+            return;
+        }
+        self.to_light_q14 = l;
         for (f, n) in self.derived.facing.iter_mut().zip(NORMALS_Q14.iter()) {
             let cos =
                 (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2]) >> 14;
@@ -530,6 +537,11 @@ impl LightFrame {
                 1 + (cos >> 8).min(64) as u8
             };
         }
+    }
+
+    /// The slope-bias table a sample's test looks up, from the biases and reaches: integer
+    /// arithmetic only, so host and ARM make the same one.
+    fn derive(&mut self) {
         if !self.point {
             for row in 0..=MAX_LEVELS {
                 let level = row.max(1) - 1;
@@ -950,6 +962,16 @@ impl LightFrame {
     /// The light's tables for one object of a scene: the grid described by `header`, placed by
     /// `placement`, in the scene's shared light space (one shadow map for every object).
     pub fn in_space(header: &Header, placement: &Placement, space: &LightSpace) -> Self {
+        let mut frame = Self::UNSET;
+        frame.set_in_space(header, placement, space);
+        frame
+    }
+
+    /// [`LightFrame::in_space`] in place: the scene renderer sets one frame per object in turn
+    /// (firmware keeps it in a `static`, as for [`LightFrame::set`]), so that 17 KB of tables are
+    /// neither built on the stack and copied out nor rebuilt where they cannot have changed (the
+    /// facing table, [`LightFrame::set_to_light`]).
+    pub fn set_in_space(&mut self, header: &Header, placement: &Placement, space: &LightSpace) {
         // Light coordinate k of a model point p: (s·Rᵀ·axis_k · p + axis_k · t − lo_k) · scale_k.
         let rows: [[f64; 4]; 3] = core::array::from_fn(|k| {
             let m = camera::scale(placement.to_model_dir(space.axes[k]), placement.scale);
@@ -966,8 +988,9 @@ impl LightFrame {
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let root = core::array::from_fn(|k| to_i(camera::dot(dir(k), centre) + rows[k][3]));
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
-        let mut ext = [[0i32; 3]; MAX_LEVELS];
+        let (disp, ext) = (&mut self.disp, &mut self.ext);
+        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *ext = [[0i32; 3]; MAX_LEVELS];
         let mut stop_level = usize::from(header.depth);
         let mut cell = side;
         for level in 0..=usize::from(header.depth) {
@@ -991,26 +1014,20 @@ impl LightFrame {
                 stop_level = level;
             }
         }
-        let bias = depth_bias(&ext, header.depth, stop_level);
-        let reach = directional_reach(&ext, header.depth, space.texel * space.scales[2]);
+        let bias = depth_bias(ext, header.depth, stop_level);
+        let reach = directional_reach(ext, header.depth, space.texel * space.scales[2]);
         let travel = placement.to_model_dir(space.axes[2]);
-        let mut frame = LightFrame {
-            root,
-            disp,
-            ext,
-            bias,
-            to_light_q14: travel.map(|t| to_i(-t * 16384.0)),
-            tan_q8: TAN_Q8,
-            reach,
-            texel_q16: 0,
-            stop_level,
-            order: SlotOrder::new(light_order(rho, travel)),
-            point: false,
-            point_depth: PointDepth::default(),
-            derived: Derived::EMPTY,
-        };
-        frame.derive();
-        frame
+        self.root = root;
+        self.bias = bias;
+        self.tan_q8 = TAN_Q8;
+        self.reach = reach;
+        self.texel_q16 = 0;
+        self.stop_level = stop_level;
+        self.order = SlotOrder::new(light_order(rho, travel));
+        self.point = false;
+        self.point_depth = PointDepth::default();
+        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
+        self.derive();
     }
 }
 
