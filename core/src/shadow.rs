@@ -231,8 +231,11 @@ impl Derived {
     };
 }
 
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: what clamping the
+/// rounded float to ±(2³¹ − 1) before the (saturating) cast gives, bit for bit, with the clamp's
+/// two soft-float compares per table entry left out.
 fn to_i(x: f64) -> i32 {
-    libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32
+    (libm::round(x) as i32).max(-i32::MAX)
 }
 
 fn l1(a: Vec3) -> f64 {

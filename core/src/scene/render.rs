@@ -456,26 +456,28 @@ fn render_options(opts: &SceneOptions) -> RenderOptions {
     }
 }
 
-/// Object `i`'s tri-grid frame, its depth mapped over the scene's `range` (`None`: no object `i`).
+/// Sets `frame` to object `i`'s tri-grid frame, its depth mapped over the scene's `range`, and
+/// returns the object's grid (`None`: no object `i`). One frame is set in place per object in turn
+/// ([`TgFrame::set`]): nothing is copied out, and tables that repeat are kept.
 fn object_frame<'s, 'a>(
     scene: &'s Scene<'a>,
     i: usize,
     camera: &Camera,
     ropts: &RenderOptions,
     range: DepthRange,
-) -> Result<Option<(TgFrame, &'s TriGrid<'a>)>, SceneError> {
+    frame: &mut TgFrame,
+) -> Result<Option<&'s TriGrid<'a>>, SceneError> {
     let (Some(grid), Some(rec)) = (scene.grid(i), scene.pack.object(i)) else {
         return Ok(None);
     };
-    let mut frame =
-        TgFrame::new(grid.header(), &rec.placement, camera, ropts).map_err(|error| {
-            SceneError::Frame {
-                object: i as u8,
-                error,
-            }
+    frame
+        .set(grid.header(), &rec.placement, camera, ropts)
+        .map_err(|error| SceneError::Frame {
+            object: i as u8,
+            error,
         })?;
     frame.share_depth_range(range);
-    Ok(Some((frame, grid)))
+    Ok(Some(grid))
 }
 
 #[cfg(feature = "shadows")]
@@ -489,6 +491,7 @@ fn render_shadowed<S: SplatSink>(
 ) -> Result<SceneStats, SceneError> {
     let ropts = render_options(opts);
     let range = scene.depth_range(camera);
+    let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
     let n = scene.len();
     let side = opts.shadow_map_size.clamp(1, super::MAX_MAP_SIZE);
@@ -509,7 +512,7 @@ fn render_shadowed<S: SplatSink>(
             let Some(rec) = scene.pack.object(i).filter(|r| r.casts_shadows) else {
                 continue;
             };
-            if let Some((frame, grid)) = object_frame(scene, i, camera, &ropts, range)? {
+            if let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? {
                 light.set_in_space(grid.header(), &rec.placement, &space);
                 stats.shadow_fill_nodes += cast_shadow_map(grid, &frame, light, &mut map);
             }
@@ -517,7 +520,7 @@ fn render_shadowed<S: SplatSink>(
     }
     for (k, &i) in order[..n].iter().enumerate() {
         let i = usize::from(i);
-        let Some((frame, grid)) = object_frame(scene, i, camera, &ropts, range)? else {
+        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
             continue;
         };
         let Some(rec) = scene.pack.object(i) else {
@@ -548,9 +551,10 @@ fn render_unshadowed<S: SplatSink>(
 ) -> Result<SceneStats, SceneError> {
     let ropts = render_options(opts);
     let range = scene.depth_range(camera);
+    let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
     for i in 0..scene.len() {
-        let Some((frame, grid)) = object_frame(scene, i, camera, &ropts, range)? else {
+        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
             continue;
         };
         let mut s = slotted(scene, i, sink);

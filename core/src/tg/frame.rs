@@ -103,6 +103,10 @@ pub struct TgFrame {
     w_per_unit: f64,
     /// Bit per normal code: backfacing for every ray of the view.
     pub(crate) backface: [u32; NORMAL_COUNT / 32],
+    /// What `backface` was made from: the view direction in the model frame (Q14) and the
+    /// threshold; `None` for the empty table (no culling). [`TgFrame::set`] keeps the table when
+    /// they repeat.
+    backface_key: Option<([i32; 3], i32)>,
     pub(crate) kernel: Kernel,
 }
 
@@ -114,8 +118,11 @@ fn l1(v: Vec3) -> f64 {
     libm::fabs(v[0]) + libm::fabs(v[1]) + libm::fabs(v[2])
 }
 
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: what clamping the
+/// rounded float to ±(2³¹ − 1) before the (saturating) cast gives, bit for bit, with the clamp's
+/// two soft-float compares per table entry left out.
 fn to_i32(x: f64) -> i32 {
-    libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32
+    (libm::round(x) as i32).max(-i32::MAX)
 }
 
 /// `out[s][k] = round(dot(rows[k], off(s)))` for each child slot `s < ρ³` of a cell of side
@@ -159,6 +166,49 @@ impl TgFrame {
         camera: &Camera,
         opts: &RenderOptions,
     ) -> Result<Self, FrameError> {
+        let mut frame = Self::UNSET;
+        frame.set(header, placement, camera, opts)?;
+        Ok(frame)
+    }
+
+    /// No frame: a placeholder to [`TgFrame::set`] (it would draw nothing sensible).
+    pub const UNSET: TgFrame = TgFrame {
+        rho: 3,
+        depth: 0,
+        root: [0; 3],
+        disp: [[[0; 3]; MAX_SLOTS]; MAX_LEVELS],
+        ext: [Extents {
+            x: 0,
+            y: 0,
+            w: 0,
+            r: 0,
+            b: 0,
+        }; MAX_LEVELS],
+        lod_w: [i32::MAX; MAX_LEVELS],
+        size_k: [(0, 0); MAX_LEVELS],
+        near_w: 1,
+        depth_w0: 0,
+        depth_scale: 0,
+        w_per_unit: 0.0,
+        backface: [0; NORMAL_COUNT / 32],
+        backface_key: None,
+        kernel: Kernel::Square,
+    };
+
+    /// [`TgFrame::new`] in place: a scene sets one frame per object in turn, so that the frame
+    /// (5 KB) is not copied out per object, and the backfacing table (8192 normals, ~0.1 M
+    /// instructions on a Cortex-M3) is kept when the object's rotation gives the view direction the
+    /// last object's did. On an error the frame is left partly set.
+    ///
+    /// # Errors
+    /// As [`TgFrame::new`].
+    pub fn set(
+        &mut self,
+        header: &Header,
+        placement: &Placement,
+        camera: &Camera,
+        opts: &RenderOptions,
+    ) -> Result<(), FrameError> {
         if header.rho > 3 {
             return Err(FrameError::UnsupportedRho(header.rho));
         }
@@ -210,7 +260,8 @@ impl TgFrame {
         let root = root_f.map(to_i32);
 
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        let disp = &mut self.disp;
+        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
         let mut ext = [Extents::default(); MAX_LEVELS];
         let mut lod_w = [i32::MAX; MAX_LEVELS];
         let mut size_k = [(0u32, 0u32); MAX_LEVELS];
@@ -262,37 +313,42 @@ impl TgFrame {
 
         // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
         // the image corner from the axis plus a 2° margin (splats straddle the border).
-        let mut backface = [0u32; NORMAL_COUNT / 32];
+        let mut key = None;
         if opts.backface_culling {
             let theta = libm::atan(libm::sqrt(cx * cx + cy * cy) / f) + 2f64.to_radians();
             if theta < core::f64::consts::FRAC_PI_2 {
                 let fwd = placement.to_model_dir(camera.forward);
                 let fq = fwd.map(|c| libm::round(c * 16384.0) as i32);
                 let threshold = to_i32(libm::sin(theta) * 16384.0 * 16384.0) + 3 * 16384;
+                key = Some((fq, threshold));
+            }
+        }
+        // The table depends on the key alone: rebuilt only when it changes.
+        if key != self.backface_key {
+            self.backface = [0u32; NORMAL_COUNT / 32];
+            if let Some((fq, threshold)) = key {
                 for (code, n) in NORMALS_Q14.iter().enumerate() {
                     let d =
                         i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
                     if d > threshold {
-                        backface[code / 32] |= 1 << (code % 32);
+                        self.backface[code / 32] |= 1 << (code % 32);
                     }
                 }
             }
+            self.backface_key = key;
         }
-        Ok(TgFrame {
-            rho: header.rho,
-            depth: header.depth,
-            root,
-            disp,
-            ext,
-            lod_w,
-            size_k,
-            near_w,
-            depth_w0,
-            depth_scale,
-            w_per_unit: scale,
-            backface,
-            kernel: opts.kernel,
-        })
+        self.rho = header.rho;
+        self.depth = header.depth;
+        self.root = root;
+        self.ext = ext;
+        self.lod_w = lod_w;
+        self.size_k = size_k;
+        self.near_w = near_w;
+        self.depth_w0 = depth_w0;
+        self.depth_scale = depth_scale;
+        self.w_per_unit = scale;
+        self.kernel = opts.kernel;
+        Ok(())
     }
 
     /// The splat kernel this frame was set up with.
@@ -377,6 +433,38 @@ impl DepthRange {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn to_i32_is_the_clamped_cast() {
+        let old = |x: f64| libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32;
+        let mut xs = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -2.5,
+            2_147_483_646.5,
+            2_147_483_647.0,
+            2_147_483_647.4,
+            2_147_483_647.5,
+            2_147_483_648.0,
+            -2_147_483_646.5,
+            -2_147_483_647.0,
+            -2_147_483_647.5,
+            -2_147_483_648.0,
+            -2_147_483_649.0,
+            1e300,
+            -1e300,
+        ];
+        xs.extend((0..2000).map(|i| (f64::from(i) - 1000.0) * 1234.567_89));
+        for x in xs {
+            assert_eq!(to_i32(x), old(x), "{x}");
+        }
+    }
 
     #[test]
     fn slot_dots_are_the_full_dot_products_bit_for_bit() {
