@@ -56,7 +56,7 @@ use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
 use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
-use crate::tg::frame::{slot_dots, TgFrame, MAX_SLOTS};
+use crate::tg::frame::{round_to_i32, slot_dots, TgFrame, MAX_SLOTS};
 use crate::tg::read::{Header, TriGrid};
 use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks, SlotOrder};
 use crate::tg::MAX_LEVELS;
@@ -231,11 +231,10 @@ impl Derived {
     };
 }
 
-/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: what clamping the
-/// rounded float to ±(2³¹ − 1) before the (saturating) cast gives, bit for bit, with the clamp's
-/// two soft-float compares per table entry left out.
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0, in integer
+/// arithmetic ([`round_to_i32`]).
 fn to_i(x: f64) -> i32 {
-    (libm::round(x) as i32).max(-i32::MAX)
+    round_to_i32(x)
 }
 
 fn l1(a: Vec3) -> f64 {

@@ -118,11 +118,36 @@ fn l1(v: Vec3) -> f64 {
     libm::fabs(v[0]) + libm::fabs(v[1]) + libm::fabs(v[2])
 }
 
-/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: what clamping the
-/// rounded float to ±(2³¹ − 1) before the (saturating) cast gives, bit for bit, with the clamp's
-/// two soft-float compares per table entry left out.
-fn to_i32(x: f64) -> i32 {
-    (libm::round(x) as i32).max(-i32::MAX)
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: every integer of a
+/// frame's tables comes through here.
+pub(crate) fn to_i32(x: f64) -> i32 {
+    round_to_i32(x)
+}
+
+/// `libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32`, bit for bit (tests compare
+/// them), in integer arithmetic on `x`'s bits: on an FPU-less core the float version is a soft
+/// add, a truncation, four soft compares and a conversion, ~200 instructions per table entry.
+pub(crate) fn round_to_i32(x: f64) -> i32 {
+    const FRACTION: u64 = (1 << 52) - 1;
+    let bits = x.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as u32; // biased: |x| = 1.f · 2^(exp − 1023)
+    let magnitude: u64 = match exp {
+        0x7ff if bits & FRACTION != 0 => return 0, // NaN
+        0..=1021 => 0,                             // |x| < 0.5 (and zeros, subnormals)
+        1022..=1053 => {
+            // |x| = m · 2^−shift with shift in 22..=53: add half a unit, drop the fraction.
+            let m = (bits & FRACTION) | (1 << 52);
+            let shift = 1075 - exp;
+            (m + (1 << (shift - 1))) >> shift
+        }
+        _ => u64::MAX, // |x| ≥ 2³¹ or infinite: saturates
+    };
+    let magnitude = magnitude.min(i32::MAX as u64) as i32;
+    if bits >> 63 != 0 {
+        -magnitude
+    } else {
+        magnitude
+    }
 }
 
 /// `out[s][k] = round(dot(rows[k], off(s)))` for each child slot `s < ρ³` of a cell of side
@@ -461,8 +486,34 @@ mod tests {
             -1e300,
         ];
         xs.extend((0..2000).map(|i| (f64::from(i) - 1000.0) * 1234.567_89));
+        // Halves and their neighbours, over the whole range.
+        for k in (0..40).flat_map(|e| [1i64 << e, (1i64 << e) + 1, (1i64 << e) - 1, 3 << e]) {
+            let h = k as f64 + 0.5;
+            for x in [h, -h, k as f64, -(k as f64)] {
+                let b = x.to_bits();
+                xs.extend([
+                    x,
+                    f64::from_bits(b + 1),
+                    f64::from_bits(b.saturating_sub(1)),
+                ]);
+            }
+        }
+        xs.extend([
+            0.499_999_999_999_999_94,
+            -0.499_999_999_999_999_94,
+            f64::MIN_POSITIVE,
+            5e-324,
+        ]);
+        // Random bit patterns with exponents about the interesting range (a little LCG).
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..200_000 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let exp = 1000 + (seed >> 58) % 64; // 2^-23 .. 2^40
+            let bits = (seed & (1 << 63)) | (exp << 52) | (seed.rotate_left(17) & ((1 << 52) - 1));
+            xs.push(f64::from_bits(bits));
+        }
         for x in xs {
-            assert_eq!(to_i32(x), old(x), "{x}");
+            assert_eq!(to_i32(x), old(x), "{x:e} ({:#x})", x.to_bits());
         }
     }
 
