@@ -13,8 +13,10 @@
 //!   objects; see [`crate::shadow::render_tg_in_scene`] for where that is not exact). The last
 //!   object drawn fills nothing, since nothing is drawn after it.
 //!
-//! Per frame one object's [`TgFrame`] (and [`LightFrame`]) is live at a time, on the stack, so RAM
-//! does not grow with the number of objects ([`ram_budget`]).
+//! Per frame one [`TgFrame`] (and [`LightFrame`]) is set in place for each object in turn, so RAM
+//! does not grow with the number of objects ([`ram_budget`]) and nothing is rebuilt that the last
+//! object's frame already holds; the tri-grid frame is on the stack, the light frame where the
+//! caller keeps it ([`render_scene_in`]: a `static` on the device).
 //!
 //! Setup uses floats, as every frame setup does; per splat the slot sink is integer only.
 
@@ -588,8 +590,8 @@ pub struct RamBudget {
     pub shading_tables: usize,
     /// Block cache (0: a pack in flash or RAM is resident, read in place).
     pub cache: usize,
-    /// Per-frame setup live at a time (one object's tri-grid frame, and its light frame with
-    /// shadows), on the stack.
+    /// Per-frame setup live at a time (one object's tri-grid frame, on the stack, and with
+    /// shadows its light frame, a `static` on the device).
     pub frame_setup: usize,
     /// The opened scene (pack view and the objects' readers).
     pub scene: usize,

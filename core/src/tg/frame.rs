@@ -485,7 +485,7 @@ mod tests {
             1e300,
             -1e300,
         ];
-        xs.extend((0..2000).map(|i| (f64::from(i) - 1000.0) * 1234.567_89));
+        xs.extend((0..2000).map(|i| (f64::from(i) - 1000.0) * 1_234.567_89));
         // Halves and their neighbours, over the whole range.
         for k in (0..40).flat_map(|e| [1i64 << e, (1i64 << e) + 1, (1i64 << e) - 1, 3 << e]) {
             let h = k as f64 + 0.5;
