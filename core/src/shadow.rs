@@ -56,7 +56,7 @@ use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
 use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
-use crate::tg::frame::{TgFrame, MAX_SLOTS};
+use crate::tg::frame::{round_to_i32, slot_dots, TgFrame, MAX_SLOTS};
 use crate::tg::read::{Header, TriGrid};
 use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks, SlotOrder};
 use crate::tg::MAX_LEVELS;
@@ -231,8 +231,10 @@ impl Derived {
     };
 }
 
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0, in integer
+/// arithmetic ([`round_to_i32`]).
 fn to_i(x: f64) -> i32 {
-    libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32
+    round_to_i32(x)
 }
 
 fn l1(a: Vec3) -> f64 {
@@ -248,12 +250,6 @@ fn across(axis: Vec3) -> (Vec3, Vec3) {
     };
     let u = camera::normalize(camera::cross(helper, axis));
     (u, camera::cross(axis, u))
-}
-
-/// Offset of child slot `s` of a cell of side `parent` from the cell's centre.
-fn slot_offset(s: usize, rho: usize, parent: f64) -> Vec3 {
-    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
-    core::array::from_fn(|k| ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent)
 }
 
 /// The ρ³ slots in order of their centre's distance along `travel` (the light's direction of
@@ -350,10 +346,9 @@ impl LightFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(s, rho, parent);
-                    *d = core::array::from_fn(|k| to_i(camera::dot(axes[k], off) * scales[k]));
-                }
+                slot_dots(&axes, rho, parent, &mut disp[level], |k, x| {
+                    to_i(x * scales[k])
+                });
             }
             let h = 0.5 * cell;
             ext[level] = core::array::from_fn(|k| {
@@ -370,8 +365,8 @@ impl LightFrame {
         let reach = directional_reach(ext, header.depth, extent / map_size as f64 * s_d);
         self.root = root;
         self.bias = bias;
-        self.to_light_q14 = travel.map(|t| to_i(-t * 16384.0));
-        self.tan_q8 = tan_table();
+        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
+        self.tan_q8 = TAN_Q8;
         self.reach = reach;
         self.texel_q16 = 0;
         self.stop_level = stop_level;
@@ -460,10 +455,7 @@ impl LightFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (slot, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(slot, rho, parent);
-                    *d = rows.map(|r| to_i(camera::dot(r, off)));
-                }
+                slot_dots(&rows, rho, parent, &mut disp[level], |_, x| to_i(x));
             }
             let h = 0.5 * cell * s;
             let margin = level as i32 + 1;
@@ -509,8 +501,8 @@ impl LightFrame {
             disp,
             ext,
             bias,
-            to_light_q14: to_light.map(to_i),
-            tan_q8: tan_table(),
+            to_light_q14: [0; 3], // with the empty facing table: set below
+            tan_q8: TAN_Q8,
             reach,
             // A texel at distance W spans W·2·tan/N across.
             texel_q16: to_i(2.0 * tan / n * 65536.0),
@@ -523,14 +515,21 @@ impl LightFrame {
             },
             derived: Derived::EMPTY,
         };
+        frame.set_to_light(to_light.map(to_i));
         frame.derive();
         Ok(frame)
     }
 
-    /// The tables a sample's test looks up, from the light's direction, biases and reaches:
-    /// integer arithmetic only, so host and ARM make the same ones.
-    fn derive(&mut self) {
-        let l = self.to_light_q14;
+    /// Sets the direction to the light (model frame, Q14) and the facing table, which depends on
+    /// it alone. The table always holds the facing of `to_light_q14` (all zeros for
+    /// [`LightFrame::UNSET`]'s zero direction, as this loop makes them), so a frame set in place
+    /// for an object whose rotation gives the same direction as the last one's keeps its table:
+    /// 8192 normals, ~0.1 M instructions on a Cortex-M3, saved for every such object of a scene.
+    fn set_to_light(&mut self, l: [i32; 3]) {
+        if l == self.to_light_q14 {
+            return;
+        }
+        self.to_light_q14 = l;
         for (f, n) in self.derived.facing.iter_mut().zip(NORMALS_Q14.iter()) {
             let cos =
                 (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2]) >> 14;
@@ -540,6 +539,11 @@ impl LightFrame {
                 1 + (cos >> 8).min(64) as u8
             };
         }
+    }
+
+    /// The slope-bias table a sample's test looks up, from the biases and reaches: integer
+    /// arithmetic only, so host and ARM make the same one.
+    fn derive(&mut self) {
         if !self.point {
             for row in 0..=MAX_LEVELS {
                 let level = row.max(1) - 1;
@@ -619,7 +623,19 @@ fn directional_reach(
     reach
 }
 
-/// `tan θ` in Q8 for `cos θ = i / 64`, the cosine floored at 1/8 (so the tangent is at most 8).
+/// `tan θ` in Q8 for `cos θ = i / 64`, the cosine floored at 1/8 (so the tangent is at most 8):
+/// [`tan_table`]'s values, written out because every light frame (each object of a scene, each
+/// frame) needs them and 65 soft-float square roots and divisions cost ~50 k instructions on a
+/// Cortex-M3 each time. A test checks them against the formula.
+const TAN_Q8: [i32; 65] = [
+    2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 1802, 1618, 1467, 1341, 1234, 1142, 1062,
+    991, 929, 873, 823, 778, 737, 699, 665, 633, 603, 576, 550, 526, 504, 482, 462, 443, 425, 408,
+    392, 376, 361, 347, 333, 320, 307, 294, 282, 270, 259, 248, 237, 226, 215, 205, 194, 184, 173,
+    163, 152, 142, 131, 119, 108, 95, 81, 66, 46, 0,
+];
+
+/// [`TAN_Q8`] from its formula.
+#[cfg(test)]
 fn tan_table() -> [i32; 65] {
     let mut t = [0i32; 65];
     for (i, b) in t.iter_mut().enumerate() {
@@ -948,6 +964,16 @@ impl LightFrame {
     /// The light's tables for one object of a scene: the grid described by `header`, placed by
     /// `placement`, in the scene's shared light space (one shadow map for every object).
     pub fn in_space(header: &Header, placement: &Placement, space: &LightSpace) -> Self {
+        let mut frame = Self::UNSET;
+        frame.set_in_space(header, placement, space);
+        frame
+    }
+
+    /// [`LightFrame::in_space`] in place: the scene renderer sets one frame per object in turn
+    /// (firmware keeps it in a `static`, as for [`LightFrame::set`]), so that 17 KB of tables are
+    /// neither built on the stack and copied out nor rebuilt where they cannot have changed (the
+    /// facing table, [`LightFrame::set_to_light`]).
+    pub fn set_in_space(&mut self, header: &Header, placement: &Placement, space: &LightSpace) {
         // Light coordinate k of a model point p: (s·Rᵀ·axis_k · p + axis_k · t − lo_k) · scale_k.
         let rows: [[f64; 4]; 3] = core::array::from_fn(|k| {
             let m = camera::scale(placement.to_model_dir(space.axes[k]), placement.scale);
@@ -964,18 +990,22 @@ impl LightFrame {
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let root = core::array::from_fn(|k| to_i(camera::dot(dir(k), centre) + rows[k][3]));
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
-        let mut ext = [[0i32; 3]; MAX_LEVELS];
+        let (disp, ext) = (&mut self.disp, &mut self.ext);
+        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *ext = [[0i32; 3]; MAX_LEVELS];
         let mut stop_level = usize::from(header.depth);
         let mut cell = side;
         for level in 0..=usize::from(header.depth) {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let off = slot_offset(s, rho, parent);
-                    *d = core::array::from_fn(|k| to_i(camera::dot(dir(k), off)));
-                }
+                slot_dots(
+                    &[dir(0), dir(1), dir(2)],
+                    rho,
+                    parent,
+                    &mut disp[level],
+                    |_, x| to_i(x),
+                );
             }
             let h = 0.5 * cell;
             ext[level] =
@@ -986,26 +1016,20 @@ impl LightFrame {
                 stop_level = level;
             }
         }
-        let bias = depth_bias(&ext, header.depth, stop_level);
-        let reach = directional_reach(&ext, header.depth, space.texel * space.scales[2]);
+        let bias = depth_bias(ext, header.depth, stop_level);
+        let reach = directional_reach(ext, header.depth, space.texel * space.scales[2]);
         let travel = placement.to_model_dir(space.axes[2]);
-        let mut frame = LightFrame {
-            root,
-            disp,
-            ext,
-            bias,
-            to_light_q14: travel.map(|t| to_i(-t * 16384.0)),
-            tan_q8: tan_table(),
-            reach,
-            texel_q16: 0,
-            stop_level,
-            order: SlotOrder::new(light_order(rho, travel)),
-            point: false,
-            point_depth: PointDepth::default(),
-            derived: Derived::EMPTY,
-        };
-        frame.derive();
-        frame
+        self.root = root;
+        self.bias = bias;
+        self.tan_q8 = TAN_Q8;
+        self.reach = reach;
+        self.texel_q16 = 0;
+        self.stop_level = stop_level;
+        self.order = SlotOrder::new(light_order(rho, travel));
+        self.point = false;
+        self.point_depth = PointDepth::default();
+        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
+        self.derive();
     }
 }
 
@@ -1074,6 +1098,11 @@ mod tests {
     fn ijk(s: u8) -> [i32; 3] {
         let s = i32::from(s);
         [s % 3, s / 3 % 3, s / 9]
+    }
+
+    #[test]
+    fn the_written_out_tangents_are_the_formula_s() {
+        assert_eq!(TAN_Q8, tan_table());
     }
 
     #[test]

@@ -497,6 +497,7 @@ pub struct HostSceneFrames {
     depth: Box<[[u16; WIDTH]; HEIGHT]>,
     table: Box<SceneTable>,
     shadow: Vec<u16>,
+    light: Box<LightFrame>,
 }
 
 impl Default for HostSceneFrames {
@@ -513,6 +514,7 @@ impl HostSceneFrames {
             depth: rows(),
             table: Box::new(SceneTable::new()),
             shadow: vec![0; SCENE_MAP_SIZE * SCENE_MAP_SIZE],
+            light: Box::new(LightFrame::UNSET),
         }
     }
 
@@ -530,6 +532,7 @@ impl HostSceneFrames {
             depth: &mut self.depth,
             table: &mut self.table,
             shadow: &mut self.shadow,
+            light: &mut self.light,
         };
         Ok(render_scene_view(scene, spec, &mut targets, |_| {})?)
     }

@@ -82,6 +82,9 @@ mod firmware {
                 depth: DEPTH,
                 table: SCENE_TABLE,
                 shadow: SCENE_SHADOW,
+                // The single model's light frame: a pack run never renders one.
+                #[cfg(feature = "shadows")]
+                light: LIGHT,
             });
             report_memory(psram_bytes);
         }
@@ -601,11 +604,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let scene = pocketsplat_core::scene::Scene::open(pack, Verify::Structure)?;
         let (mut depth, mut table) = (rows(), Box::new(SceneTable::new()));
         let mut shadow = vec![0u16; SCENE_MAP_SIZE * SCENE_MAP_SIZE];
+        #[cfg(feature = "shadows")]
+        let mut light = Box::new(pocketsplat_core::shadow::LightFrame::UNSET);
         let mut targets = SceneTargets {
             color: &mut color,
             depth: &mut depth,
             table: &mut table,
             shadow: &mut shadow,
+            #[cfg(feature = "shadows")]
+            light: &mut light,
         };
         for spec in scene_frame_specs(&scene) {
             println!("{}", render_scene_view(&scene, spec, &mut targets, |_| {})?);

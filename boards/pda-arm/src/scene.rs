@@ -16,10 +16,14 @@
 use core::fmt;
 
 use pocketsplat_core::raster::Framebuffer;
-use pocketsplat_core::scene::{
-    render_scene, PackShadows, Scene, SceneError, SceneOptions, MAGIC, MAX_SLOTS,
-};
+#[cfg(not(feature = "shadows"))]
+use pocketsplat_core::scene::render_scene;
+#[cfg(feature = "shadows")]
+use pocketsplat_core::scene::render_scene_in;
+use pocketsplat_core::scene::{PackShadows, Scene, SceneError, SceneOptions, MAGIC, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
+#[cfg(feature = "shadows")]
+use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 
 use crate::views::draw_shaded;
@@ -55,6 +59,10 @@ pub struct SceneTargets<'a> {
     /// Shadow-map depths: at least the pack's map side² when it has shadows (may be empty
     /// otherwise).
     pub shadow: &'a mut [u16],
+    /// Where each object's light frame is set in turn (a `static` on the device: 17 KB off the
+    /// stack).
+    #[cfg(feature = "shadows")]
+    pub light: &'a mut LightFrame,
 }
 
 /// One frame of a scene: a view of the pack and a cutoff.
@@ -171,13 +179,20 @@ pub fn render_scene_view<'p>(
     let table_rebuilt = scene.update_table(targets.table, &cam, opts.light_dir)?;
 
     let shadow = &mut *targets.shadow;
+    #[cfg(feature = "shadows")]
+    let light = &mut *targets.light;
     let stats = draw_shaded(
         targets.color,
         targets.depth,
         targets.table,
         opts.kernel,
         &mut mark,
-        |sink| render_scene(scene, &cam, &opts, shadow, sink),
+        |sink| {
+            #[cfg(feature = "shadows")]
+            return render_scene_in(scene, &cam, &opts, shadow, light, sink);
+            #[cfg(not(feature = "shadows"))]
+            render_scene(scene, &cam, &opts, shadow, sink)
+        },
     )?;
     Ok(SceneFrameReport {
         view_name,

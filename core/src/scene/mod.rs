@@ -20,6 +20,8 @@ pub mod render;
 pub mod write;
 
 pub use pack::{Pack, PackError};
+#[cfg(feature = "shadows")]
+pub use render::render_scene_in;
 pub use render::{
     ram_budget, render_scene, shading_table_bytes, slot_attr, slot_bits, RamBudget, Scene,
     SceneError, SceneOptions, SceneStats,

@@ -13,8 +13,10 @@
 //!   objects; see [`crate::shadow::render_tg_in_scene`] for where that is not exact). The last
 //!   object drawn fills nothing, since nothing is drawn after it.
 //!
-//! Per frame one object's [`TgFrame`] (and [`LightFrame`]) is live at a time, on the stack, so RAM
-//! does not grow with the number of objects ([`ram_budget`]).
+//! Per frame one [`TgFrame`] (and [`LightFrame`]) is set in place for each object in turn, so RAM
+//! does not grow with the number of objects ([`ram_budget`]) and nothing is rebuilt that the last
+//! object's frame already holds; the tri-grid frame is on the stack, the light frame where the
+//! caller keeps it ([`render_scene_in`]: a `static` on the device).
 //!
 //! Setup uses floats, as every frame setup does; per splat the slot sink is integer only.
 
@@ -404,7 +406,9 @@ fn add(total: &mut Stats, s: &Stats) {
 /// bits are slots of the table [`Scene::update_table`] prepared. The caller clears the framebuffer.
 ///
 /// `shadow_depths` holds the shadow map when the options ask for shadows: at least side² depths,
-/// the side being [`SceneOptions::shadow_map_size`]; it may be empty otherwise.
+/// the side being [`SceneOptions::shadow_map_size`]; it may be empty otherwise. With shadows, each
+/// object's light frame is set in turn in one [`LightFrame`] on the stack (17 KB); firmware passes
+/// its own to [`render_scene_in`] instead.
 ///
 /// # Errors
 /// [`SceneError::Frame`] when an object's frame cannot be set up (bad camera or cutoff),
@@ -416,82 +420,143 @@ pub fn render_scene<S: SplatSink>(
     shadow_depths: &mut [u16],
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    let ropts = RenderOptions {
+    #[cfg(feature = "shadows")]
+    if opts.shadows != PackShadows::Off {
+        let mut light = LightFrame::UNSET;
+        return render_shadowed(scene, camera, opts, shadow_depths, &mut light, sink);
+    }
+    let _ = shadow_depths;
+    render_unshadowed(scene, camera, opts, sink)
+}
+
+/// [`render_scene`] with each object's light frame set in `light` (whatever it held before):
+/// firmware keeps it in a `static`, as for a single model ([`LightFrame::set`]), so that its 17 KB
+/// are neither on the stack nor copied per object.
+///
+/// # Errors
+/// As [`render_scene`].
+#[cfg(feature = "shadows")]
+pub fn render_scene_in<S: SplatSink>(
+    scene: &Scene<'_>,
+    camera: &Camera,
+    opts: &SceneOptions,
+    shadow_depths: &mut [u16],
+    light: &mut LightFrame,
+    sink: &mut S,
+) -> Result<SceneStats, SceneError> {
+    if opts.shadows == PackShadows::Off {
+        return render_unshadowed(scene, camera, opts, sink);
+    }
+    render_shadowed(scene, camera, opts, shadow_depths, light, sink)
+}
+
+fn render_options(opts: &SceneOptions) -> RenderOptions {
+    RenderOptions {
         cutoff_px: opts.cutoff_px,
         kernel: opts.kernel,
         backface_culling: opts.backface_culling,
+    }
+}
+
+/// Sets `frame` to object `i`'s tri-grid frame, its depth mapped over the scene's `range`, and
+/// returns the object's grid (`None`: no object `i`). One frame is set in place per object in turn
+/// ([`TgFrame::set`]): nothing is copied out, and tables that repeat are kept.
+fn object_frame<'s, 'a>(
+    scene: &'s Scene<'a>,
+    i: usize,
+    camera: &Camera,
+    ropts: &RenderOptions,
+    range: DepthRange,
+    frame: &mut TgFrame,
+) -> Result<Option<&'s TriGrid<'a>>, SceneError> {
+    let (Some(grid), Some(rec)) = (scene.grid(i), scene.pack.object(i)) else {
+        return Ok(None);
     };
+    frame
+        .set(grid.header(), &rec.placement, camera, ropts)
+        .map_err(|error| SceneError::Frame {
+            object: i as u8,
+            error,
+        })?;
+    frame.share_depth_range(range);
+    Ok(Some(grid))
+}
+
+#[cfg(feature = "shadows")]
+fn render_shadowed<S: SplatSink>(
+    scene: &Scene<'_>,
+    camera: &Camera,
+    opts: &SceneOptions,
+    shadow_depths: &mut [u16],
+    light: &mut LightFrame,
+    sink: &mut S,
+) -> Result<SceneStats, SceneError> {
+    let ropts = render_options(opts);
     let range = scene.depth_range(camera);
-    let frame_of = |i: usize| -> Result<Option<(TgFrame, &TriGrid<'_>)>, SceneError> {
-        let (Some(grid), Some(rec)) = (scene.grid(i), scene.pack.object(i)) else {
-            return Ok(None);
-        };
-        let mut frame =
-            TgFrame::new(grid.header(), &rec.placement, camera, &ropts).map_err(|error| {
-                SceneError::Frame {
-                    object: i as u8,
-                    error,
-                }
-            })?;
-        frame.share_depth_range(range);
-        Ok(Some((frame, grid)))
-    };
+    let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
     let n = scene.len();
-
-    #[cfg(feature = "shadows")]
-    if opts.shadows != PackShadows::Off {
-        let side = opts.shadow_map_size.clamp(1, super::MAX_MAP_SIZE);
-        let need = side * side;
-        if shadow_depths.len() < need {
-            return Err(SceneError::ShadowBuffer {
-                need: need as u32,
-                given: shadow_depths.len() as u32,
-            });
-        }
-        let mut map = ShadowMap::new(shadow_depths, side);
-        map.clear();
-        let space = scene.light_space(opts.light_dir, side);
-        let order = scene.light_order(&space);
-        let two_pass = opts.shadows == PackShadows::TwoPass;
-        if two_pass {
-            for i in 0..n {
-                let Some(rec) = scene.pack.object(i).filter(|r| r.casts_shadows) else {
-                    continue;
-                };
-                if let Some((frame, grid)) = frame_of(i)? {
-                    let light = LightFrame::in_space(grid.header(), &rec.placement, &space);
-                    stats.shadow_fill_nodes += cast_shadow_map(grid, &frame, &light, &mut map);
-                }
+    let side = opts.shadow_map_size.clamp(1, super::MAX_MAP_SIZE);
+    let need = side * side;
+    if shadow_depths.len() < need {
+        return Err(SceneError::ShadowBuffer {
+            need: need as u32,
+            given: shadow_depths.len() as u32,
+        });
+    }
+    let mut map = ShadowMap::new(shadow_depths, side);
+    map.clear();
+    let space = scene.light_space(opts.light_dir, side);
+    let order = scene.light_order(&space);
+    let two_pass = opts.shadows == PackShadows::TwoPass;
+    if two_pass {
+        for i in 0..n {
+            let Some(rec) = scene.pack.object(i).filter(|r| r.casts_shadows) else {
+                continue;
+            };
+            if let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? {
+                light.set_in_space(grid.header(), &rec.placement, &space);
+                stats.shadow_fill_nodes += cast_shadow_map(grid, &frame, light, &mut map);
             }
         }
-        for (k, &i) in order[..n].iter().enumerate() {
-            let i = usize::from(i);
-            let Some((frame, grid)) = frame_of(i)? else {
-                continue;
-            };
-            let Some(rec) = scene.pack.object(i) else {
-                continue;
-            };
-            let light = LightFrame::in_space(grid.header(), &rec.placement, &space);
-            // One-pass: an object that casts nothing, or the last one drawn, only tests.
-            let mode = if two_pass || !rec.casts_shadows || k + 1 == n {
-                ShadowMode::TwoPass
-            } else {
-                ShadowMode::OnePass
-            };
-            let mut s = slotted(scene, i, sink);
-            let st = render_tg_in_scene(grid, &frame, &light, &mut map, mode, &mut s);
-            add(&mut stats.total, &st);
-            stats.objects[i] = st;
-        }
-        stats.total.nodes_visited += stats.shadow_fill_nodes;
-        stats.shadows = opts.shadows;
-        return Ok(stats);
     }
-    let _ = shadow_depths;
-    for i in 0..n {
-        let Some((frame, grid)) = frame_of(i)? else {
+    for (k, &i) in order[..n].iter().enumerate() {
+        let i = usize::from(i);
+        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
+            continue;
+        };
+        let Some(rec) = scene.pack.object(i) else {
+            continue;
+        };
+        light.set_in_space(grid.header(), &rec.placement, &space);
+        // One-pass: an object that casts nothing, or the last one drawn, only tests.
+        let mode = if two_pass || !rec.casts_shadows || k + 1 == n {
+            ShadowMode::TwoPass
+        } else {
+            ShadowMode::OnePass
+        };
+        let mut s = slotted(scene, i, sink);
+        let st = render_tg_in_scene(grid, &frame, light, &mut map, mode, &mut s);
+        add(&mut stats.total, &st);
+        stats.objects[i] = st;
+    }
+    stats.total.nodes_visited += stats.shadow_fill_nodes;
+    stats.shadows = opts.shadows;
+    Ok(stats)
+}
+
+fn render_unshadowed<S: SplatSink>(
+    scene: &Scene<'_>,
+    camera: &Camera,
+    opts: &SceneOptions,
+    sink: &mut S,
+) -> Result<SceneStats, SceneError> {
+    let ropts = render_options(opts);
+    let range = scene.depth_range(camera);
+    let mut frame = TgFrame::UNSET;
+    let mut stats = SceneStats::default();
+    for i in 0..scene.len() {
+        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
             continue;
         };
         let mut s = slotted(scene, i, sink);
@@ -525,8 +590,8 @@ pub struct RamBudget {
     pub shading_tables: usize,
     /// Block cache (0: a pack in flash or RAM is resident, read in place).
     pub cache: usize,
-    /// Per-frame setup live at a time (one object's tri-grid frame, and its light frame with
-    /// shadows), on the stack.
+    /// Per-frame setup live at a time (one object's tri-grid frame, on the stack, and with
+    /// shadows its light frame, a `static` on the device).
     pub frame_setup: usize,
     /// The opened scene (pack view and the objects' readers).
     pub scene: usize,

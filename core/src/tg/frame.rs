@@ -103,6 +103,10 @@ pub struct TgFrame {
     w_per_unit: f64,
     /// Bit per normal code: backfacing for every ray of the view.
     pub(crate) backface: [u32; NORMAL_COUNT / 32],
+    /// What `backface` was made from: the view direction in the model frame (Q14) and the
+    /// threshold; `None` for the empty table (no culling). [`TgFrame::set`] keeps the table when
+    /// they repeat.
+    backface_key: Option<([i32; 3], i32)>,
     pub(crate) kernel: Kernel,
 }
 
@@ -114,8 +118,65 @@ fn l1(v: Vec3) -> f64 {
     libm::fabs(v[0]) + libm::fabs(v[1]) + libm::fabs(v[2])
 }
 
-fn to_i32(x: f64) -> i32 {
-    libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32
+/// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0: every integer of a
+/// frame's tables comes through here.
+pub(crate) fn to_i32(x: f64) -> i32 {
+    round_to_i32(x)
+}
+
+/// `libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32`, bit for bit (tests compare
+/// them), in integer arithmetic on `x`'s bits: on an FPU-less core the float version is a soft
+/// add, a truncation, four soft compares and a conversion, ~200 instructions per table entry.
+pub(crate) fn round_to_i32(x: f64) -> i32 {
+    const FRACTION: u64 = (1 << 52) - 1;
+    let bits = x.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as u32; // biased: |x| = 1.f · 2^(exp − 1023)
+    let magnitude: u64 = match exp {
+        0x7ff if bits & FRACTION != 0 => return 0, // NaN
+        0..=1021 => 0,                             // |x| < 0.5 (and zeros, subnormals)
+        1022..=1053 => {
+            // |x| = m · 2^−shift with shift in 22..=53: add half a unit, drop the fraction.
+            let m = (bits & FRACTION) | (1 << 52);
+            let shift = 1075 - exp;
+            (m + (1 << (shift - 1))) >> shift
+        }
+        _ => u64::MAX, // |x| ≥ 2³¹ or infinite: saturates
+    };
+    let magnitude = magnitude.min(i32::MAX as u64) as i32;
+    if bits >> 63 != 0 {
+        -magnitude
+    } else {
+        magnitude
+    }
+}
+
+/// `out[s][k] = round(dot(rows[k], off(s)))` for each child slot `s < ρ³` of a cell of side
+/// `parent`, `off(s)` being the slot centre's offset from the cell's centre and `round` what the
+/// caller makes of a dot product (scale, round to an integer): the displacement tables of a
+/// camera's or a light's frame.
+///
+/// Bit for bit what computing each product in full gives (`dot(a, o) = (a₀o₀ + a₁o₁) + a₂o₂`), with
+/// far fewer soft floats on an FPU-less core: an offset's component takes only ρ values (the
+/// slot's index along that axis), so there are ρ offsets, 3ρ products per row and ρ² sums of the
+/// first two terms, each computed once instead of once per slot.
+pub(crate) fn slot_dots(
+    rows: &[Vec3; 3],
+    rho: usize,
+    parent: f64,
+    out: &mut [[i32; 3]; MAX_SLOTS],
+    round: impl Fn(usize, f64) -> i32,
+) {
+    // The offset of index i along an axis: the expression per slot and axis it replaces.
+    let off: [f64; 3] = core::array::from_fn(|i| ((i as f64 + 0.5) / rho as f64 - 0.5) * parent);
+    for (k, r) in rows.iter().enumerate() {
+        // prod[c][i] = r[c] · off[i]; first[j][i] = the first two terms for indices i, j.
+        let prod: [[f64; 3]; 3] = core::array::from_fn(|c| off.map(|o| r[c] * o));
+        let first: [[f64; 3]; 3] = core::array::from_fn(|j| prod[0].map(|p| p + prod[1][j]));
+        for (s, d) in out.iter_mut().enumerate().take(rho * rho * rho) {
+            let (i, j, l) = (s % rho, (s / rho) % rho, s / (rho * rho));
+            d[k] = round(k, first[j][i] + prod[2][l]);
+        }
+    }
 }
 
 impl TgFrame {
@@ -130,6 +191,49 @@ impl TgFrame {
         camera: &Camera,
         opts: &RenderOptions,
     ) -> Result<Self, FrameError> {
+        let mut frame = Self::UNSET;
+        frame.set(header, placement, camera, opts)?;
+        Ok(frame)
+    }
+
+    /// No frame: a placeholder to [`TgFrame::set`] (it would draw nothing sensible).
+    pub const UNSET: TgFrame = TgFrame {
+        rho: 3,
+        depth: 0,
+        root: [0; 3],
+        disp: [[[0; 3]; MAX_SLOTS]; MAX_LEVELS],
+        ext: [Extents {
+            x: 0,
+            y: 0,
+            w: 0,
+            r: 0,
+            b: 0,
+        }; MAX_LEVELS],
+        lod_w: [i32::MAX; MAX_LEVELS],
+        size_k: [(0, 0); MAX_LEVELS],
+        near_w: 1,
+        depth_w0: 0,
+        depth_scale: 0,
+        w_per_unit: 0.0,
+        backface: [0; NORMAL_COUNT / 32],
+        backface_key: None,
+        kernel: Kernel::Square,
+    };
+
+    /// [`TgFrame::new`] in place: a scene sets one frame per object in turn, so that the frame
+    /// (5 KB) is not copied out per object, and the backfacing table (8192 normals, ~0.1 M
+    /// instructions on a Cortex-M3) is kept when the object's rotation gives the view direction the
+    /// last object's did. On an error the frame is left partly set.
+    ///
+    /// # Errors
+    /// As [`TgFrame::new`].
+    pub fn set(
+        &mut self,
+        header: &Header,
+        placement: &Placement,
+        camera: &Camera,
+        opts: &RenderOptions,
+    ) -> Result<(), FrameError> {
         if header.rho > 3 {
             return Err(FrameError::UnsupportedRho(header.rho));
         }
@@ -181,7 +285,8 @@ impl TgFrame {
         let root = root_f.map(to_i32);
 
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        let disp = &mut self.disp;
+        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
         let mut ext = [Extents::default(); MAX_LEVELS];
         let mut lod_w = [i32::MAX; MAX_LEVELS];
         let mut size_k = [(0u32, 0u32); MAX_LEVELS];
@@ -195,13 +300,10 @@ impl TgFrame {
             if level > 0 {
                 let parent = cell;
                 cell = parent / rho as f64;
-                for (s, d) in disp[level].iter_mut().enumerate().take(rho * rho * rho) {
-                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
-                    let off: Vec3 = core::array::from_fn(|k| {
-                        ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent
-                    });
-                    *d = [0, 1, 2].map(|k| to_i32(camera::dot(row(&a[k]), off) * scale));
-                }
+                let rows = [row(&a[0]), row(&a[1]), row(&a[2])];
+                slot_dots(&rows, rho, parent, &mut disp[level], |_, x| {
+                    to_i32(x * scale)
+                });
             }
             let h = 0.5 * cell * scale;
             let margin = level as f64 + 2.0;
@@ -236,37 +338,42 @@ impl TgFrame {
 
         // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
         // the image corner from the axis plus a 2° margin (splats straddle the border).
-        let mut backface = [0u32; NORMAL_COUNT / 32];
+        let mut key = None;
         if opts.backface_culling {
             let theta = libm::atan(libm::sqrt(cx * cx + cy * cy) / f) + 2f64.to_radians();
             if theta < core::f64::consts::FRAC_PI_2 {
                 let fwd = placement.to_model_dir(camera.forward);
                 let fq = fwd.map(|c| libm::round(c * 16384.0) as i32);
                 let threshold = to_i32(libm::sin(theta) * 16384.0 * 16384.0) + 3 * 16384;
+                key = Some((fq, threshold));
+            }
+        }
+        // The table depends on the key alone: rebuilt only when it changes.
+        if key != self.backface_key {
+            self.backface = [0u32; NORMAL_COUNT / 32];
+            if let Some((fq, threshold)) = key {
                 for (code, n) in NORMALS_Q14.iter().enumerate() {
                     let d =
                         i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
                     if d > threshold {
-                        backface[code / 32] |= 1 << (code % 32);
+                        self.backface[code / 32] |= 1 << (code % 32);
                     }
                 }
             }
+            self.backface_key = key;
         }
-        Ok(TgFrame {
-            rho: header.rho,
-            depth: header.depth,
-            root,
-            disp,
-            ext,
-            lod_w,
-            size_k,
-            near_w,
-            depth_w0,
-            depth_scale,
-            w_per_unit: scale,
-            backface,
-            kernel: opts.kernel,
-        })
+        self.rho = header.rho;
+        self.depth = header.depth;
+        self.root = root;
+        self.ext = ext;
+        self.lod_w = lod_w;
+        self.size_k = size_k;
+        self.near_w = near_w;
+        self.depth_w0 = depth_w0;
+        self.depth_scale = depth_scale;
+        self.w_per_unit = scale;
+        self.kernel = opts.kernel;
+        Ok(())
     }
 
     /// The splat kernel this frame was set up with.
@@ -344,6 +451,105 @@ impl DepthRange {
         DepthRange {
             near: self.near.min(other.near),
             far: self.far.max(other.far),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn to_i32_is_the_clamped_cast() {
+        let old = |x: f64| libm::round(x).clamp(-2_147_483_647.0, 2_147_483_647.0) as i32;
+        let mut xs = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -2.5,
+            2_147_483_646.5,
+            2_147_483_647.0,
+            2_147_483_647.4,
+            2_147_483_647.5,
+            2_147_483_648.0,
+            -2_147_483_646.5,
+            -2_147_483_647.0,
+            -2_147_483_647.5,
+            -2_147_483_648.0,
+            -2_147_483_649.0,
+            1e300,
+            -1e300,
+        ];
+        xs.extend((0..2000).map(|i| (f64::from(i) - 1000.0) * 1_234.567_89));
+        // Halves and their neighbours, over the whole range.
+        for k in (0..40).flat_map(|e| [1i64 << e, (1i64 << e) + 1, (1i64 << e) - 1, 3 << e]) {
+            let h = k as f64 + 0.5;
+            for x in [h, -h, k as f64, -(k as f64)] {
+                let b = x.to_bits();
+                xs.extend([
+                    x,
+                    f64::from_bits(b + 1),
+                    f64::from_bits(b.saturating_sub(1)),
+                ]);
+            }
+        }
+        xs.extend([
+            0.499_999_999_999_999_94,
+            -0.499_999_999_999_999_94,
+            f64::MIN_POSITIVE,
+            5e-324,
+        ]);
+        // Random bit patterns with exponents about the interesting range (a little LCG).
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..200_000 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let exp = 1000 + (seed >> 58) % 64; // 2^-23 .. 2^40
+            let bits = (seed & (1 << 63)) | (exp << 52) | (seed.rotate_left(17) & ((1 << 52) - 1));
+            xs.push(f64::from_bits(bits));
+        }
+        for x in xs {
+            assert_eq!(to_i32(x), old(x), "{x:e} ({:#x})", x.to_bits());
+        }
+    }
+
+    #[test]
+    fn slot_dots_are_the_full_dot_products_bit_for_bit() {
+        // Awkward rows and sides (a little LCG: no dependency), ρ 2 and 3.
+        let mut seed = 0x1234_5678_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..200 {
+            let rows: [Vec3; 3] = core::array::from_fn(|_| core::array::from_fn(|_| next() * 1e6));
+            let parent = next().abs() * 7.0 + 1e-3;
+            let scale = next().abs() * 100.0;
+            for rho in [2, 3] {
+                let mut fast = [[0i32; 3]; MAX_SLOTS];
+                // The low bits of the dot product itself: any difference in rounding shows.
+                slot_dots(&rows, rho, parent, &mut fast, |k, x| {
+                    (x * scale + k as f64).to_bits() as i32
+                });
+                for (s, d) in fast.iter().enumerate() {
+                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
+                    let off: Vec3 = core::array::from_fn(|k| {
+                        ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent
+                    });
+                    let full: [i32; 3] = if s < rho * rho * rho {
+                        core::array::from_fn(|k| {
+                            (camera::dot(rows[k], off) * scale + k as f64).to_bits() as i32
+                        })
+                    } else {
+                        [0; 3]
+                    };
+                    assert_eq!(*d, full, "slot {s}, rho {rho}");
+                }
+            }
         }
     }
 }

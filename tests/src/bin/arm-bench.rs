@@ -5,6 +5,7 @@
 //!     [--format tg|qsplat|both] [--target TRIPLE]... [--no-shadows] [--json]
 //!     [--profile VIEW:CUTOFF:MODE]
 //! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--target TRIPLE]... [--json]
+//!     [--profile VIEW:CUTOFF]
 //! ```
 //!
 //! Builds the firmware with each model linked into PSRAM (default: the bunny, baked into
@@ -26,7 +27,8 @@
 //! at each cutoff of `SCENE_CUTOFFS_PX` (1, 2, 3, 4, 6 and 8 px) with its one-pass shadows, CRCs
 //! checked against the host, instructions per frame by phase, and each frame's PSNR against the
 //! same view at 1 px (the scene has no float reference render yet). The model-only options
-//! (`--model`, `--format`, `--no-shadows`, `--profile`) are refused with it.
+//! (`--model`, `--format`, `--no-shadows`) are refused with it. Its `--profile` names a frame by the
+//! pack's view and a cutoff (`far:8`), the shadows being the pack's.
 //!
 //! `--json` prints one JSON object per frame instead, one line each, and nothing else on stdout
 //! (progress goes to stderr), for the error-vs-time report to match against its own frames by
@@ -39,7 +41,8 @@
 //! `psnr_vs_finest_db` (`null` for the 1 px frames themselves, which are their own reference).
 //!
 //! `--profile std:1:off` also profiles that frame's traversal by function, for each model (needs
-//! `llvm-addr2line`, or `$LLVM_ADDR2LINE`).
+//! `llvm-addr2line`, or `$LLVM_ADDR2LINE`); with `--big-scene`, `--profile far:8` profiles that
+//! frame of the scene (the traversal phase holds the per-object setup too).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -70,7 +73,8 @@ struct Args {
     targets: Vec<String>,
     shadows: bool,
     json: bool,
-    profile: Option<FrameSpec>,
+    /// `--profile`'s frame, as given: `VIEW:CUTOFF:MODE` for models, `VIEW:CUTOFF` for the scene.
+    profile: Option<String>,
     big_scene: bool,
     /// The model-only options given, to refuse them with `--big-scene`.
     model_only: Vec<String>,
@@ -78,7 +82,7 @@ struct Args {
 
 const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|qsplat|both] \
                      [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE] | \
-                     --big-scene [--target TRIPLE]... [--json]";
+                     --big-scene [--target TRIPLE]... [--json] [--profile VIEW:CUTOFF]";
 
 fn parse_args() -> Result<Args> {
     let mut args = Args {
@@ -97,10 +101,7 @@ fn parse_args() -> Result<Args> {
             it.next()
                 .with_context(|| format!("{a} needs a value\n{USAGE}"))
         };
-        if matches!(
-            a.as_str(),
-            "--model" | "--format" | "--no-shadows" | "--profile"
-        ) {
+        if matches!(a.as_str(), "--model" | "--format" | "--no-shadows") {
             args.model_only.push(a.clone());
         }
         match a.as_str() {
@@ -118,7 +119,7 @@ fn parse_args() -> Result<Args> {
             "--no-shadows" => args.shadows = false,
             "--json" => args.json = true,
             "--big-scene" => args.big_scene = true,
-            "--profile" => args.profile = Some(parse_frame(&value()?)?),
+            "--profile" => args.profile = Some(value()?),
             "-h" | "--help" => {
                 println!("{USAGE}");
                 std::process::exit(0);
@@ -131,6 +132,9 @@ fn parse_args() -> Result<Args> {
             "--big-scene benchmarks the Big Scene only: {} do not apply to it\n{USAGE}",
             args.model_only.join(", ")
         );
+    }
+    if let (false, Some(p)) = (args.big_scene, &args.profile) {
+        parse_frame(p)?; // refused now, not after the first build
     }
     if args.targets.is_empty() {
         args.targets = BENCH_TARGETS.map(str::to_owned).to_vec();
@@ -335,17 +339,9 @@ fn json_row(model: &Bench, target: &str, r: &Row) -> serde_json::Value {
     })
 }
 
-/// Profiles the traversal of frame `spec` of `fw` (built already) by function, innermost inlined
-/// function first, with `llvm-addr2line`.
-fn profile(
-    fw: &Firmware<'_>,
-    modes: &'static [Shadows],
-    spec: FrameSpec,
-    counter: &Counter,
-) -> Result<()> {
-    let index = frame_specs_for(modes)
-        .position(|s| s == spec)
-        .with_context(|| format!("{} does not render {spec:?}", fw.name()))?;
+/// Profiles the traversal phase of the `index`th frame `fw` renders (counted from 0; `what` names
+/// it for the heading) by function, innermost inlined function first, with `llvm-addr2line`.
+fn profile(fw: &Firmware<'_>, index: usize, what: &str, counter: &Counter) -> Result<()> {
     let elf = fw.build()?;
     let n = Phase::ALL.len();
     let traverse = Phase::ALL
@@ -369,8 +365,9 @@ fn profile(
         })
         .collect();
     let addr2line = std::env::var_os("LLVM_ADDR2LINE").unwrap_or_else(|| "llvm-addr2line".into());
-    let mut child = Command::new(&addr2line)
-        .args(["-f", "-C", "-e"])
+    // `-i`: every inlined frame of each address, innermost first, as JSON (one entry per address).
+    let child = Command::new(&addr2line)
+        .args(["-f", "-i", "-C", "--output-style=JSON", "-e"])
         .arg(&elf)
         .args(counts.iter().map(|(a, _)| a))
         .output()
@@ -385,37 +382,60 @@ fn profile(
         "{}",
         String::from_utf8_lossy(&child.stderr)
     );
-    let lines = String::from_utf8(std::mem::take(&mut child.stdout))?;
-    let names: Vec<&str> = lines.lines().step_by(2).collect();
+    let answers: Vec<serde_json::Value> = serde_json::from_slice(&child.stdout)
+        .context("addr2line's JSON (llvm-addr2line 13 or later)")?;
     ensure!(
-        names.len() == counts.len(),
+        answers.len() == counts.len(),
         "addr2line answered {} of {}",
-        names.len(),
+        answers.len(),
         counts.len()
     );
+    // Self: by the innermost inlined function. Inclusive: each function on the inline chain (once
+    // per address), so that a setup function's inlined helpers count towards it too; calls that
+    // were not inlined (soft floats, memcpy) count only for themselves.
     let mut by_fn: BTreeMap<String, u64> = BTreeMap::new();
-    for ((_, c), name) in counts.iter().zip(names) {
-        // Drop the hash and generic arguments: `pocketsplat_core::tg::traverse::Walker::node`.
-        let short = match name.rsplit_once("::h") {
-            Some((n, hash)) if hash.len() == 16 && hash.bytes().all(|b| b.is_ascii_hexdigit()) => n,
-            _ => name,
-        };
-        *by_fn.entry(strip_generics(&unescape(short))).or_default() += c;
+    let mut inclusive: BTreeMap<String, u64> = BTreeMap::new();
+    for ((_, c), answer) in counts.iter().zip(&answers) {
+        let mut chain: Vec<String> = answer["Symbol"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|f| short_name(f["FunctionName"].as_str().unwrap_or("??")))
+            .collect();
+        if chain.is_empty() {
+            chain.push("??".to_owned());
+        }
+        *by_fn.entry(chain[0].clone()).or_default() += c;
+        chain.sort();
+        chain.dedup();
+        for name in chain {
+            *inclusive.entry(name).or_default() += c;
+        }
     }
     let total: u64 = by_fn.values().sum();
-    let mut v: Vec<_> = by_fn.into_iter().collect();
-    v.sort_by_key(|e| std::cmp::Reverse(e.1));
     println!(
-        "\nprofile of {} {} px shadows {} ({}), traversal phase: {total} instructions",
-        spec.view_name(),
-        spec.cutoff_px,
-        spec.shadows.name(),
+        "\nprofile of {what} ({}), traversal phase: {total} instructions",
         fw.name()
     );
-    for (name, c) in v.iter().take(20) {
-        println!("{:6.2}% {c:>12} {name}", 100.0 * *c as f64 / total as f64);
+    for (heading, table, rows) in [("self", by_fn, 20), ("inclusive of inlined", inclusive, 30)] {
+        println!("{heading}:");
+        let mut v: Vec<_> = table.into_iter().collect();
+        v.sort_by_key(|e| std::cmp::Reverse(e.1));
+        for (name, c) in v.iter().take(rows) {
+            println!("{:6.2}% {c:>12} {name}", 100.0 * *c as f64 / total as f64);
+        }
     }
     Ok(())
+}
+
+/// A function's name without hash and generic arguments:
+/// `pocketsplat_core::tg::traverse::Walker::node`.
+fn short_name(name: &str) -> String {
+    let short = match name.rsplit_once("::h") {
+        Some((n, hash)) if hash.len() == 16 && hash.bytes().all(|b| b.is_ascii_hexdigit()) => n,
+        _ => name,
+    };
+    strip_generics(&unescape(short))
 }
 
 /// Undoes the legacy mangling's escapes that `llvm-addr2line -C` leaves in (`$LT$` for `<`, …).
@@ -442,7 +462,28 @@ fn unescape(s: &str) -> String {
     s
 }
 
+/// Drops generic arguments; a qualified path keeps its type (`<Walker<…>>::node` → `Walker::node`,
+/// `<u32 as CastInto<f64>>::cast` → `<u32 as CastInto>::cast`).
 fn strip_generics(s: &str) -> String {
+    if let Some(rest) = s.strip_prefix('<') {
+        let mut depth = 1;
+        if let Some(close) = rest.find(|ch| {
+            match ch {
+                '<' => depth += 1,
+                '>' => depth -= 1,
+                _ => {}
+            }
+            depth == 0
+        }) {
+            let inner = strip_generics(&rest[..close]);
+            let inner = if inner.contains(" as ") {
+                format!("<{inner}>")
+            } else {
+                inner
+            };
+            return inner + &strip_generics(&rest[close + 1..]);
+        }
+    }
     let mut out = String::new();
     let mut depth = 0;
     for ch in s.chars() {
@@ -453,7 +494,7 @@ fn strip_generics(s: &str) -> String {
             _ => {}
         }
     }
-    out
+    out.trim_end_matches("::").to_owned()
 }
 
 /// One model to bench: its file, bytes, their CRC-32 and its name.
@@ -519,12 +560,23 @@ fn bench_model(
             .unwrap_or(usize::MAX)
     };
     rows.sort_by_key(order);
-    if let Some(spec) = args.profile {
+    if let Some(spec) = args.profile.as_deref().map(parse_frame).transpose()? {
         match variants
             .iter()
             .find(|(_, modes)| modes.contains(&spec.shadows))
         {
-            Some((fw, modes)) => profile(fw, modes, spec, counter)?,
+            Some((fw, modes)) => {
+                let index = frame_specs_for(modes)
+                    .position(|s| s == spec)
+                    .with_context(|| format!("{} does not render {spec:?}", fw.name()))?;
+                let what = format!(
+                    "{} {} px shadows {}",
+                    spec.view_name(),
+                    spec.cutoff_px,
+                    spec.shadows.name()
+                );
+                profile(fw, index, &what, counter)?;
+            }
             None => eprintln!(
                 "{}: no build renders shadows {}; not profiled",
                 file.name,
@@ -574,7 +626,7 @@ fn run() -> Result<()> {
         "qemu-system-arm is needed (apt-get install qemu-system-arm)"
     );
     if args.big_scene {
-        return big_scene(&args.targets, args.json);
+        return big_scene(&args.targets, args.json, args.profile.as_deref());
     }
     let paths: Vec<PathBuf> = if args.models.is_empty() {
         args.formats
@@ -683,8 +735,9 @@ fn model_name(path: &Path) -> String {
 }
 
 /// `--big-scene`: the Big Scene's frames on each target, with their cost and PSNR against 1 px, as
-/// a table or (`json`) one JSON object per frame.
-fn big_scene(targets: &[String], json: bool) -> Result<()> {
+/// a table or (`json`) one JSON object per frame; then the profile of frame `profile_of`
+/// (`VIEW:CUTOFF`), if given.
+fn big_scene(targets: &[String], json: bool, profile_of: Option<&str>) -> Result<()> {
     use pocketsplat_core::scene::{Pack, Scene, SceneOptions};
     use pocketsplat_core::shade::rgb565_to_rgb888;
     use pocketsplat_pda::scene::scene_frame_specs;
@@ -698,7 +751,26 @@ fn big_scene(targets: &[String], json: bool) -> Result<()> {
         Pack::open(&bytes).map_err(anyhow::Error::msg)?,
         Verify::Full,
     )?;
-    let kernel = SceneOptions::of(scene.pack()).kernel;
+    let opts = SceneOptions::of(scene.pack());
+    let kernel = opts.kernel;
+    // The firmware's index of the profiled frame, found before anything is built.
+    let profiled = profile_of
+        .map(|p| -> Result<(usize, String)> {
+            let (view, cutoff) = p
+                .split_once(':')
+                .with_context(|| format!("--profile {p}: want VIEW:CUTOFF, e.g. far:8"))?;
+            let index = scene_frame_specs(&scene)
+                .position(|s| {
+                    scene.pack().view(s.view).is_some_and(|(n, _)| n == view)
+                        && cutoff.parse() == Ok(s.cutoff_px)
+                })
+                .with_context(|| {
+                    format!("--profile {p}: not one of the scene firmware's frames")
+                })?;
+            let what = format!("Big Scene {view} {cutoff} px shadows {:?}", opts.shadows);
+            Ok((index, what))
+        })
+        .transpose()?;
     // PSNR of each frame against its view at the finest cutoff (the first of each view).
     let mut host = HostSceneFrames::new();
     let rgb = |h: &HostSceneFrames| -> Vec<[u8; 3]> {
@@ -763,52 +835,66 @@ fn big_scene(targets: &[String], json: bool) -> Result<()> {
                 row["psnr_vs_finest_db"] = json!(p.is_finite().then_some(p));
                 println!("{row}");
             }
-            continue;
-        }
-        println!(
-            "\n{target}, Big Scene ({} B pack): instructions per frame (exact, QEMU TCG plugin); \
-             PSNR against the view at 1 px",
-            bytes.len()
-        );
-        println!(
-            "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8}",
-            "view",
-            "cutoff",
-            "shadows",
-            "splats",
-            "nodes",
-            "instr/frame",
-            "setup",
-            "table",
-            "clear",
-            "traverse",
-            "PSNR dB"
-        );
-        for ((r, c), p) in reports.iter().zip(&costs).zip(&psnr) {
+        } else {
+            print_scene_table(target, bytes.len(), &reports, &costs, &psnr);
             println!(
-                "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8.2}",
-                r.view_name,
-                r.spec.cutoff_px,
-                r.shadows.name(),
-                r.stats.splats,
-                r.stats.nodes_visited,
-                c.frame(),
-                c.setup,
-                c.table,
-                c.clear,
-                c.traverse,
-                p
+                "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B",
+                fw.name(),
+                memory.flash,
+                memory.ram,
+                memory.psram
             );
         }
-        println!(
-            "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B",
-            fw.name(),
-            memory.flash,
-            memory.ram,
-            memory.psram
-        );
+        if let Some((index, what)) = &profiled {
+            profile(&fw, *index, what, &counter)?;
+        }
     }
     Ok(())
+}
+
+/// The Big Scene's frames on `target` as a table: cost by phase and PSNR against 1 px.
+fn print_scene_table(
+    target: &str,
+    pack_bytes: usize,
+    reports: &[pocketsplat_pda::scene::SceneFrameReport<'_>],
+    costs: &[FrameCost],
+    psnr: &[f64],
+) {
+    println!(
+        "\n{target}, Big Scene ({} B pack): instructions per frame (exact, QEMU TCG plugin); \
+         PSNR against the view at 1 px",
+        pack_bytes
+    );
+    println!(
+        "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8}",
+        "view",
+        "cutoff",
+        "shadows",
+        "splats",
+        "nodes",
+        "instr/frame",
+        "setup",
+        "table",
+        "clear",
+        "traverse",
+        "PSNR dB"
+    );
+    for ((r, c), p) in reports.iter().zip(costs).zip(psnr) {
+        println!(
+            "{:<6} {:>6} {:<9} {:>8} {:>8} {:>12} {:>9} {:>10} {:>8} {:>12} {:>8.2}",
+            r.view_name,
+            r.spec.cutoff_px,
+            r.shadows.name(),
+            r.stats.splats,
+            r.stats.nodes_visited,
+            c.frame(),
+            c.setup,
+            c.table,
+            c.clear,
+            c.traverse,
+            p
+        );
+    }
 }
 
 fn main() -> ExitCode {
