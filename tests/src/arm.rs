@@ -462,16 +462,24 @@ pub const BIG_SCENE_SCANS: [&str; 3] = [
     "happy_vrip_res3.ply.gz",
 ];
 
-/// The Big Scene baked as `pocketsplat bake boards/sim/scenes/big.toml` bakes it, into
-/// `target/arm/models/big.pack`, or `None` off CI when a scan is missing ([`model`]).
+/// The Big Scene baked with branching factor `rho`: 3 as `pocketsplat bake boards/sim/scenes/big.toml`
+/// bakes it (the scene's tri-grid), into `target/arm/models/big.pack`; 2 as the error-vs-time report
+/// bakes its octree pack (`BakeOverrides { rho: Some(2), .. }`), into
+/// `target/arm/models/big-octree.pack`. `None` off CI when a scan is missing ([`model`]).
 ///
 /// Baked afresh every time, so the pack always matches the current baker; written only when its
 /// bytes change, so that cargo does not relink the firmware that includes it.
 ///
 /// # Errors
-/// When the scene or a scan cannot be read or baked, or the file cannot be written.
-pub fn baked_big_scene() -> Result<Option<PathBuf>> {
+/// When `rho` is neither 2 nor 3, the scene or a scan cannot be read or baked, or the file cannot
+/// be written.
+pub fn baked_big_scene(rho: u8) -> Result<Option<PathBuf>> {
     static BAKE: Mutex<()> = Mutex::new(());
+    let name = match rho {
+        3 => "big.pack",
+        2 => "big-octree.pack",
+        _ => bail!("rho {rho}: the Big Scene is baked with rho 2 (octree) or 3 (tri-grid)"),
+    };
     for scan in BIG_SCENE_SCANS {
         if model(scan).is_none() {
             return Ok(None);
@@ -479,9 +487,13 @@ pub fn baked_big_scene() -> Result<Option<PathBuf>> {
     }
     let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
     let toml = workspace_root().join("boards/sim/scenes/big.toml");
-    let baked = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
-        .with_context(|| format!("baking {}", toml.display()))?;
-    let out = target_dir().join("models/big.pack");
+    let overrides = pocketsplat_sim::scene::bake::BakeOverrides {
+        rho: Some(rho),
+        ..Default::default()
+    };
+    let baked = pocketsplat_sim::scene::bake::bake_path(&toml, &overrides)
+        .with_context(|| format!("baking {} with rho {rho}", toml.display()))?;
+    let out = target_dir().join("models").join(name);
     if fs::read(&out).ok().as_deref() != Some(&baked.bytes[..]) {
         fs::create_dir_all(out.parent().expect("a parent"))?;
         pocketsplat_sim::fsutil::write_atomic(&out, &baked.bytes)

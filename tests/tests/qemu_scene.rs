@@ -27,7 +27,7 @@ use pocketsplat_tests::arm::{
 /// The Big Scene baked, once per test binary.
 fn big_pack() -> Option<PathBuf> {
     static PACK: OnceLock<Option<PathBuf>> = OnceLock::new();
-    PACK.get_or_init(|| baked_big_scene().unwrap()).clone()
+    PACK.get_or_init(|| baked_big_scene(3).unwrap()).clone()
 }
 
 #[test]

@@ -4,8 +4,8 @@
 //! cargo run -p pocketsplat-tests --bin arm-bench -- [--model FILE.tg|FILE.qs]...
 //!     [--format tg|qsplat|both] [--target TRIPLE]... [--no-shadows] [--json]
 //!     [--profile VIEW:CUTOFF:MODE]
-//! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--target TRIPLE]... [--json]
-//!     [--profile VIEW:CUTOFF]
+//! cargo run -p pocketsplat-tests --bin arm-bench -- --big-scene [--rho 2|3] [--target TRIPLE]...
+//!     [--json] [--profile VIEW:CUTOFF]
 //! ```
 //!
 //! Builds the firmware with each model linked into PSRAM (default: the bunny, baked into
@@ -28,7 +28,10 @@
 //! checked against the host, instructions per frame by phase, and each frame's PSNR against the
 //! same view at 1 px (the scene has no float reference render yet). The model-only options
 //! (`--model`, `--format`, `--no-shadows`) are refused with it. Its `--profile` names a frame by the
-//! pack's view and a cutoff (`far:8`), the shadows being the pack's.
+//! pack's view and a cutoff (`far:8`), the shadows being the pack's. `--rho 2` bakes and runs the
+//! scene's octree pack instead (`BakeOverrides { rho: Some(2), .. }`, the bytes the error-vs-time
+//! report bakes for its octree frames), into `target/arm/models/big-octree.pack`; the default,
+//! `--rho 3`, is the tri-grid pack above. Its CRC goes to stderr.
 //!
 //! `--json` prints one JSON object per frame instead, one line each, and nothing else on stdout
 //! (progress goes to stderr), for the error-vs-time report to match against its own frames by
@@ -76,13 +79,16 @@ struct Args {
     /// `--profile`'s frame, as given: `VIEW:CUTOFF:MODE` for models, `VIEW:CUTOFF` for the scene.
     profile: Option<String>,
     big_scene: bool,
+    /// `--rho`: the Big Scene's branching factor, 3 (tri-grid, the scene's own) or 2 (octree).
+    rho: Option<u8>,
     /// The model-only options given, to refuse them with `--big-scene`.
     model_only: Vec<String>,
 }
 
 const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|qsplat|both] \
                      [--target TRIPLE]... [--no-shadows] [--json] [--profile VIEW:CUTOFF:MODE] | \
-                     --big-scene [--target TRIPLE]... [--json] [--profile VIEW:CUTOFF]";
+                     --big-scene [--rho 2|3] [--target TRIPLE]... [--json] \
+                     [--profile VIEW:CUTOFF]";
 
 fn parse_args() -> Result<Args> {
     let mut args = Args {
@@ -93,6 +99,7 @@ fn parse_args() -> Result<Args> {
         json: false,
         profile: None,
         big_scene: false,
+        rho: None,
         model_only: Vec::new(),
     };
     let mut it = std::env::args().skip(1);
@@ -119,6 +126,15 @@ fn parse_args() -> Result<Args> {
             "--no-shadows" => args.shadows = false,
             "--json" => args.json = true,
             "--big-scene" => args.big_scene = true,
+            "--rho" => {
+                let v = value()?;
+                args.rho = Some(
+                    v.parse()
+                        .ok()
+                        .filter(|r| matches!(r, 2 | 3))
+                        .with_context(|| format!("--rho {v}: want 2 or 3\n{USAGE}"))?,
+                );
+            }
             "--profile" => args.profile = Some(value()?),
             "-h" | "--help" => {
                 println!("{USAGE}");
@@ -132,6 +148,9 @@ fn parse_args() -> Result<Args> {
             "--big-scene benchmarks the Big Scene only: {} do not apply to it\n{USAGE}",
             args.model_only.join(", ")
         );
+    }
+    if args.rho.is_some() && !args.big_scene {
+        bail!("--rho applies to --big-scene only\n{USAGE}");
     }
     if let (false, Some(p)) = (args.big_scene, &args.profile) {
         parse_frame(p)?; // refused now, not after the first build
@@ -626,7 +645,8 @@ fn run() -> Result<()> {
         "qemu-system-arm is needed (apt-get install qemu-system-arm)"
     );
     if args.big_scene {
-        return big_scene(&args.targets, args.json, args.profile.as_deref());
+        let rho = args.rho.unwrap_or(3);
+        return big_scene(rho, &args.targets, args.json, args.profile.as_deref());
     }
     let paths: Vec<PathBuf> = if args.models.is_empty() {
         args.formats
@@ -734,19 +754,24 @@ fn model_name(path: &Path) -> String {
     )
 }
 
-/// `--big-scene`: the Big Scene's frames on each target, with their cost and PSNR against 1 px, as
-/// a table or (`json`) one JSON object per frame; then the profile of frame `profile_of`
-/// (`VIEW:CUTOFF`), if given.
-fn big_scene(targets: &[String], json: bool, profile_of: Option<&str>) -> Result<()> {
+/// `--big-scene`: the Big Scene's frames, baked with branching factor `rho`, on each target, with
+/// their cost and PSNR against 1 px, as a table or (`json`) one JSON object per frame; then the
+/// profile of frame `profile_of` (`VIEW:CUTOFF`), if given.
+fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) -> Result<()> {
     use pocketsplat_core::scene::{Pack, Scene, SceneOptions};
     use pocketsplat_core::shade::rgb565_to_rgb888;
     use pocketsplat_pda::scene::scene_frame_specs;
     use pocketsplat_sim::metrics::psnr_rgb8;
     use pocketsplat_tests::arm::{baked_big_scene, compare_scene_frames, HostSceneFrames};
 
-    let path = baked_big_scene()?.context("a scan is missing (set POCKETSPLAT_MODELS)")?;
+    let path = baked_big_scene(rho)?.context("a scan is missing (set POCKETSPLAT_MODELS)")?;
     let bytes = std::fs::read(&path).with_context(|| path.display().to_string())?;
     let (name, model_crc) = (model_name(&path), crc32(&bytes));
+    eprintln!(
+        "Big Scene, rho {rho}: {} ({} B, CRC {model_crc:#010x})",
+        path.display(),
+        bytes.len()
+    );
     let scene = Scene::open(
         Pack::open(&bytes).map_err(anyhow::Error::msg)?,
         Verify::Full,
@@ -767,7 +792,10 @@ fn big_scene(targets: &[String], json: bool, profile_of: Option<&str>) -> Result
                 .with_context(|| {
                     format!("--profile {p}: not one of the scene firmware's frames")
                 })?;
-            let what = format!("Big Scene {view} {cutoff} px shadows {:?}", opts.shadows);
+            let what = format!(
+                "Big Scene (rho {rho}) {view} {cutoff} px shadows {:?}",
+                opts.shadows
+            );
             Ok((index, what))
         })
         .transpose()?;
@@ -836,7 +864,7 @@ fn big_scene(targets: &[String], json: bool, profile_of: Option<&str>) -> Result
                 println!("{row}");
             }
         } else {
-            print_scene_table(target, bytes.len(), &reports, &costs, &psnr);
+            print_scene_table(target, rho, bytes.len(), &reports, &costs, &psnr);
             println!(
                 "{}: flash {} B, RAM {} B + stack {stack} B, PSRAM {} B",
                 fw.name(),
@@ -855,14 +883,15 @@ fn big_scene(targets: &[String], json: bool, profile_of: Option<&str>) -> Result
 /// The Big Scene's frames on `target` as a table: cost by phase and PSNR against 1 px.
 fn print_scene_table(
     target: &str,
+    rho: u8,
     pack_bytes: usize,
     reports: &[pocketsplat_pda::scene::SceneFrameReport<'_>],
     costs: &[FrameCost],
     psnr: &[f64],
 ) {
     println!(
-        "\n{target}, Big Scene ({} B pack): instructions per frame (exact, QEMU TCG plugin); \
-         PSNR against the view at 1 px",
+        "\n{target}, Big Scene (rho {rho}, {} B pack): instructions per frame (exact, QEMU TCG \
+         plugin); PSNR against the view at 1 px",
         pack_bytes
     );
     println!(

@@ -112,7 +112,7 @@ fn run() -> Result<()> {
                     .context("the bunny is not in ../shared/models (or $POCKETSPLAT_MODELS)")?,
             ),
             Some(Linked::BigScene) => Some(
-                baked_big_scene()?.context("the Big Scene's scans are not in ../shared/models")?,
+                baked_big_scene(3)?.context("the Big Scene's scans are not in ../shared/models")?,
             ),
             None => None,
         };
