@@ -363,17 +363,7 @@ impl LightFrame {
         let bias = depth_bias(ext, header.depth, stop_level);
         // Depth (Q8) per texel of lateral distance, times the reach in texels.
         let reach = directional_reach(ext, header.depth, extent / map_size as f64 * s_d);
-        self.root = root;
-        self.bias = bias;
-        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
-        self.tan_q8 = TAN_Q8;
-        self.reach = reach;
-        self.texel_q16 = 0;
-        self.stop_level = stop_level;
-        self.order = SlotOrder::new(light_order(rho, travel));
-        self.point = false;
-        self.point_depth = PointDepth::default();
-        self.derive();
+        self.set_directional(root, bias, reach, stop_level, rho, travel);
     }
 
     /// Sets up a point light at `light_pos` (world space) for the grid described by `header`, placed
@@ -525,6 +515,31 @@ impl LightFrame {
     /// [`LightFrame::UNSET`]'s zero direction, as this loop makes them), so a frame set in place
     /// for an object whose rotation gives the same direction as the last one's keeps its table:
     /// 8192 normals, ~0.1 M instructions on a Cortex-M3, saved for every such object of a scene.
+    /// The fields every directional light frame sets once its root, biases, reaches and stop level
+    /// are known, `travel` being the light's direction of travel in model space; then the tables
+    /// they determine.
+    fn set_directional(
+        &mut self,
+        root: LightPos,
+        bias: [i32; MAX_LEVELS],
+        reach: [i32; MAX_LEVELS],
+        stop_level: usize,
+        rho: usize,
+        travel: Vec3,
+    ) {
+        self.root = root;
+        self.bias = bias;
+        self.tan_q8 = TAN_Q8;
+        self.reach = reach;
+        self.texel_q16 = 0;
+        self.stop_level = stop_level;
+        self.order = SlotOrder::new(light_order(rho, travel));
+        self.point = false;
+        self.point_depth = PointDepth::default();
+        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
+        self.derive();
+    }
+
     fn set_to_light(&mut self, l: [i32; 3]) {
         if l == self.to_light_q14 {
             return;
@@ -1019,17 +1034,7 @@ impl LightFrame {
         let bias = depth_bias(ext, header.depth, stop_level);
         let reach = directional_reach(ext, header.depth, space.texel * space.scales[2]);
         let travel = placement.to_model_dir(space.axes[2]);
-        self.root = root;
-        self.bias = bias;
-        self.tan_q8 = TAN_Q8;
-        self.reach = reach;
-        self.texel_q16 = 0;
-        self.stop_level = stop_level;
-        self.order = SlotOrder::new(light_order(rho, travel));
-        self.point = false;
-        self.point_depth = PointDepth::default();
-        self.set_to_light(travel.map(|t| to_i(-t * 16384.0)));
-        self.derive();
+        self.set_directional(root, bias, reach, stop_level, rho, travel);
     }
 }
 
