@@ -987,7 +987,7 @@ impl LightFrame {
     /// [`LightFrame::in_space`] in place: the scene renderer sets one frame per object in turn
     /// (firmware keeps it in a `static`, as for [`LightFrame::set`]), so that 17 KB of tables are
     /// neither built on the stack and copied out nor rebuilt where they cannot have changed (the
-    /// facing table, [`LightFrame::set_to_light`]).
+    /// facing table, `LightFrame::set_to_light`).
     pub fn set_in_space(&mut self, header: &Header, placement: &Placement, space: &LightSpace) {
         // Light coordinate k of a model point p: (s·Rᵀ·axis_k · p + axis_k · t − lo_k) · scale_k.
         let rows: [[f64; 4]; 3] = core::array::from_fn(|k| {

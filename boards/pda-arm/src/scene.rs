@@ -6,11 +6,11 @@
 //! spec's cutoff, the orbit camera of the pack's view with the pack's field of view
 //! ([`Scene::camera`]), [`Scene::update_table`] (one slot per material of the scene), then clear
 //! and traverse through the same steps as a single model ([`crate::views`]' `draw_shaded`), the
-//! traversal being the core's [`render_scene`]. Shadows are the pack's when the build has the
+//! traversal being the core's [`render_scene`](pocketsplat_core::scene::render_scene). Shadows are the pack's when the build has the
 //! `shadows` feature, none otherwise (the frame line says which).
 //!
 //! Per-object setup (each object's tri-grid frame and light frame) runs inside
-//! [`Phase::Traverse`], one object at a time, as [`render_scene`] does it; [`Phase::Setup`] covers
+//! [`Phase::Traverse`], one object at a time, as [`render_scene`](pocketsplat_core::scene::render_scene) does it; [`Phase::Setup`] covers
 //! the camera and options only.
 
 use core::fmt;
