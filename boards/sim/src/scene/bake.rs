@@ -145,8 +145,8 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
                 if crate::qsplat::is_qs(path)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", what()))? =>
             {
-                let bytes = crate::qsplat::read_qs(path)
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
+                let bytes =
+                    crate::qsplat::read_qs(path).map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
                 if names.len() != 1 {
                     bail!(
                         "{}: {} is a .qs file, which has one material: give material = \"...\", \

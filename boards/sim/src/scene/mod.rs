@@ -68,6 +68,9 @@ pub mod ground;
 pub mod render;
 pub mod tree;
 
+#[cfg(test)]
+mod qs_tests;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
