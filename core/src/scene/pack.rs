@@ -195,7 +195,10 @@ impl core::fmt::Display for PackError {
                 write!(f, "view {view} has the name of an earlier view")
             }
             PackError::UnknownKind { object, kind } => {
-                write!(f, "object {object} has unknown kind {kind} (1 = .tg, 2 = .qs)")
+                write!(
+                    f,
+                    "object {object} has unknown kind {kind} (1 = .tg, 2 = .qs)"
+                )
             }
             PackError::UnknownObjectFlags { object, flags } => {
                 write!(f, "object {object} has unknown flags {flags:#04x}")

@@ -770,3 +770,59 @@ pub fn ram_budget(pack: &Pack<'_>, shadows: PackShadows, map_size: usize) -> Ram
         scene: core::mem::size_of::<Scene<'_>>(),
     }
 }
+
+#[cfg(all(test, feature = "bake"))]
+mod tests {
+    use super::*;
+    use crate::camera::Placement;
+    use crate::scene::write::{write_pack, PackContents, PackObject};
+    use crate::scene::Kind;
+
+    /// A pack of one kind-2 object whose data is not a `.qs` file.
+    fn qsplat_pack() -> std::vec::Vec<u8> {
+        write_pack(&PackContents {
+            objects: std::vec![PackObject {
+                name: "q".into(),
+                kind: Kind::QSplat,
+                data: std::vec![0u8; 64],
+                placement: Placement::IDENTITY,
+                slots: std::vec![0],
+                casts_shadows: false,
+                ground: false,
+                in_bounds: true,
+                depth_asked: 0,
+                depth_kept: 0,
+                savings: Default::default(),
+            }],
+            materials: std::vec![("m".into(), crate::shade::DEFAULT_MATERIAL)],
+            views: std::vec![],
+            path: std::vec![],
+            light_az_el: (0.0, 45.0),
+            shadows: PackShadows::Off,
+            shadow_map_size: 0,
+            fov_deg: 45.0,
+            min_cell_px: 0.0,
+            sphere: Sphere {
+                center: [0.0; 3],
+                radius: 1.0,
+            },
+            align_log2: 9,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn scene_kind_2_objects_are_opened_by_the_qsplat_reader_or_refused_without_it() {
+        let bytes = qsplat_pack();
+        let pack = Pack::open(&bytes).unwrap();
+        assert_eq!(pack.object(0).unwrap().kind, Kind::QSplat);
+        let e = Scene::open(pack, Verify::Full).unwrap_err();
+        #[cfg(not(feature = "qsplat"))]
+        {
+            assert_eq!(e, SceneError::NoQSplat { object: 0 });
+            assert!(std::format!("{e}").contains("no QSplat reader"));
+        }
+        #[cfg(feature = "qsplat")]
+        assert!(matches!(e, SceneError::QSplatObject { object: 0, .. }));
+    }
+}
