@@ -712,7 +712,7 @@ pub struct RamBudget {
     /// Block cache (0: a pack in flash or RAM is resident, read in place).
     pub cache: usize,
     /// Per-frame setup live at a time (one object's tri-grid frame, on the stack, and with
-    /// shadows its light frame, a `static` on the device).
+    /// shadows its light frame, a `static` on the device; with QSplat objects their frame too).
     pub frame_setup: usize,
     /// The opened scene (pack view and the objects' readers).
     pub scene: usize,
@@ -760,13 +760,27 @@ pub fn ram_budget(pack: &Pack<'_>, shadows: PackShadows, map_size: usize) -> Ram
     };
     #[cfg(not(feature = "shadows"))]
     let light = 0;
+    // A QSplat object's frame is on the stack beside the tri-grid frame while it is drawn.
+    let has_qs =
+        (0..pack.object_count()).any(|i| pack.object(i).is_some_and(|r| r.kind == Kind::QSplat));
+    #[cfg(feature = "qsplat")]
+    let qs_frame = if has_qs {
+        core::mem::size_of::<QsFrame>()
+    } else {
+        0
+    };
+    #[cfg(not(feature = "qsplat"))]
+    let qs_frame = {
+        let _ = has_qs;
+        0
+    };
     RamBudget {
         framebuffer: WIDTH * HEIGHT * 2,
         depth: WIDTH * HEIGHT * 2,
         shadow_map: if shadowed { side * side * 2 } else { 0 },
         shading_tables: shading_table_bytes(pack.slot_count()),
         cache: 0,
-        frame_setup: core::mem::size_of::<TgFrame>() + light,
+        frame_setup: core::mem::size_of::<TgFrame>() + light + qs_frame,
         scene: core::mem::size_of::<Scene<'_>>(),
     }
 }
