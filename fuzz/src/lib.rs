@@ -310,6 +310,7 @@ pub fn pack_base_files() -> &'static [Vec<u8>] {
         let tg = base_files();
         let object = |name: &str, data: &[u8], x: f64, slots: Vec<u8>| PackObject {
             name: name.into(),
+            kind: pocketsplat_core::scene::Kind::TriGrid,
             data: data.to_vec(),
             placement: Placement {
                 translation: [x, 0.0, 0.0],

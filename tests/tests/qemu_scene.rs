@@ -177,3 +177,72 @@ fn coarser_cutoffs_lose_psnr_against_1_px_at_std() {
         assert!(w[0].1 > w[1].1, "PSNR against 1 px: {psnr:?}");
     }
 }
+
+/// A pack with a QSplat object (a rotated trefoil `.qs` on a tri-grid ground, one-pass shadows):
+/// the firmware built with `scene,shadows,qsplat` draws every view as the host does.
+#[test]
+fn a_pack_with_a_qsplat_object_on_arm_matches_the_host() {
+    if !have_qemu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = pocketsplat_sim::demo::trefoil(96, 12, 0.35);
+    let qs = pocketsplat_core::qs::write::bake_qs(&mesh, &Default::default()).unwrap();
+    std::fs::write(dir.path().join("knot.qs"), &qs.bytes).unwrap();
+    let toml = r#"
+[shadows]
+mode = "one-pass"
+map_size = 256
+
+[materials.red]
+color = [0.9, 0.2, 0.1]
+
+[materials.green]
+color = [0.1, 0.8, 0.2]
+
+[[objects]]
+name = "ground"
+ground = { size = 4.0 }
+depth = 4
+material = "green"
+
+[[objects]]
+name = "knot"
+file = "knot.qs"
+material = "red"
+height = 1.2
+anchor = "base"
+rotate = { yaw = 35.0, pitch = 20.0 }
+
+[[views]]
+name = "v"
+az = 20.0
+el = 30.0
+dist = 2.2
+"#;
+    let scene_path = dir.path().join("qs.toml");
+    std::fs::write(&scene_path, toml).unwrap();
+    let baked = pocketsplat_sim::scene::bake::bake_path(&scene_path, &Default::default()).unwrap();
+    let pack_path = dir.path().join("qs.pack");
+    std::fs::write(&pack_path, &baked.bytes).unwrap();
+
+    let fw = Firmware {
+        target: TARGET,
+        features: &["scene", "shadows", "qsplat"],
+        model: Some(&pack_path),
+        image: None,
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    eprintln!("{}", run.transcript());
+    assert_eq!(run.output.status.code(), Some(0));
+    let scene = Scene::open(Pack::open(&baked.bytes).unwrap(), Verify::Full).unwrap();
+    assert!(scene.qsplat(1).is_some());
+    let mut host = HostSceneFrames::new();
+    let reports = compare_scene_frames(&run.stdout(), &scene, &mut host)
+        .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));
+    assert_eq!(reports.len(), SCENE_CUTOFFS_PX.len());
+    for r in &reports {
+        assert!(r.stats.splats > 0, "{r}: draws nothing");
+    }
+}

@@ -361,3 +361,109 @@ fn render_stream_gives_the_resident_frame_or_a_clear_error_and_no_output() {
     );
     assert!(!dir.path().join("small.png").exists());
 }
+
+#[test]
+fn a_scene_with_a_qs_file_bakes_lists_and_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("oct.ply"), octahedron_ply(None)).unwrap();
+    let out = pocketsplat(
+        &["bake", "oct.ply", "--format", "qsplat", "-o", "oct.qs"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        r#"
+[materials.clay]
+color = [0.8, 0.7, 0.6]
+
+[materials.grass]
+color = [0.2, 0.7, 0.2]
+
+[[objects]]
+name = "ground"
+ground = { size = 6.0 }
+depth = 3
+material = "grass"
+
+[[objects]]
+name = "oct"
+file = "oct.qs"
+material = "clay"
+anchor = "base"
+rotate = { yaw = 30.0 }
+
+[[views]]
+name = "v"
+az = 30.0
+el = 25.0
+dist = 1.5
+"#,
+    )
+    .unwrap();
+    let out = pocketsplat(&["bake", "scene.toml", "-o", "s.pack"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let out = pocketsplat(&["info", "s.pack", "--json"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let objects = info["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 2);
+    assert_eq!(objects[1]["name"], "oct");
+    assert_eq!(objects[1]["format"], "qsplat");
+    assert_eq!(objects[1]["leaf_samples"], 6);
+    assert_eq!(objects[1]["materials"], serde_json::json!(["clay"]));
+    let text = pocketsplat(&["info", "s.pack"], dir.path());
+    assert!(String::from_utf8_lossy(&text.stdout).contains("qsplat"));
+
+    let out = pocketsplat(
+        &[
+            "render",
+            "s.pack",
+            "--view",
+            "v",
+            "-o",
+            "s.png",
+            "--stats-json",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let per: Vec<u64> = stats["per_object"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o["splats"].as_u64().unwrap())
+        .collect();
+    assert!(per.iter().all(|&s| s > 0), "every object draws: {per:?}");
+    let img = pocketsplat_sim::image::read_rgb8_frame(&dir.path().join("s.png")).unwrap();
+    assert!(img.iter().filter(|p| **p != [0, 0, 0]).count() > 1000);
+
+    // Two materials for a .qs object: an error naming the scene file and the object, no pack.
+    let bad = std::fs::read_to_string(dir.path().join("scene.toml"))
+        .unwrap()
+        .replace("material = \"clay\"", "materials = [\"clay\", \"grass\"]");
+    std::fs::write(dir.path().join("bad.toml"), bad).unwrap();
+    let out = pocketsplat(&["bake", "bad.toml", "-o", "bad.pack"], dir.path());
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml") && err.contains("\"oct\""), "{err}");
+    assert!(!dir.path().join("bad.pack").exists());
+}

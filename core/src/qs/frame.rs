@@ -127,6 +127,8 @@ pub struct QsFrame {
     rows: [[f64; 4]; 3],
     /// Model units per world unit of `(X, Y, W)`: the placement's scale times the frame scale.
     world_scale: f64,
+    /// `W` units per world unit of camera depth (setup only: [`QsFrame::share_depth_range`]).
+    w_per_unit: f64,
     /// Eye in model coordinates.
     eye: Vec3,
     focal_px: f64,
@@ -255,6 +257,7 @@ impl QsFrame {
         Ok(Self {
             rows,
             world_scale: placement.scale * scale,
+            w_per_unit: scale,
             eye,
             focal_px: f,
             near_w,
@@ -264,6 +267,24 @@ impl QsFrame {
             kernel: opts.kernel,
             backface: opts.backface_culling,
         })
+    }
+
+    /// Maps depth over `range` (camera depths, world units) instead of this file's own root
+    /// spheres, so that several objects drawn into one depth buffer z-test against each other (a
+    /// scene: `crate::scene`, as [`crate::tg::TgFrame::share_depth_range`] does for tri-grids).
+    /// Depths outside the range clamp to its ends.
+    pub fn share_depth_range(&mut self, range: crate::tg::frame::DepthRange) {
+        let near = f64::from(self.near_w);
+        let lo = range.near * self.w_per_unit;
+        let hi = range.far * self.w_per_unit;
+        let w_lo = if lo.is_finite() { lo.max(near) } else { near };
+        let w_hi = if hi.is_finite() {
+            hi.max(w_lo + 1.0)
+        } else {
+            w_lo + 1.0
+        };
+        self.depth_w0 = to_i32(w_lo);
+        self.depth_scale = (65534.0 * 4_294_967_296.0 / (w_hi - w_lo + 1.0)) as u64;
     }
 
     /// The splat kernel.

@@ -6,7 +6,9 @@
 //! [`render`] draws a scene: every object through its own tri-grid frame, all of them into one
 //! z-buffer over a depth range they share ([`crate::tg::frame::TgFrame::share_depth_range`]), with
 //! one shadow map they all fill ([`crate::shadow::LightSpace`], feature `shadows`) and one shading
-//! table whose slots are the objects' materials.
+//! table whose slots are the objects' materials. An object may also be a QSplat file (`.qs`, kind
+//! 2, feature `qsplat`): it is drawn through its own QSplat frame over the same shared depth range,
+//! but QSplat has no shadow code, so in a shadowed scene it is drawn unshadowed and casts nothing.
 //!
 //! ```
 //! use pocketsplat_core::scene::{pack::PackError, Pack};
@@ -73,6 +75,20 @@ pub const FLAG_IN_BOUNDS: u8 = 4;
 pub enum Kind {
     /// A `.tg` file (tri-grid or octree).
     TriGrid = 1,
+    /// A `.qs` file (QSplat bounding-sphere tree). Drawn only by builds with the `qsplat` feature;
+    /// never shadowed and casts nothing ([`render`]).
+    QSplat = 2,
+}
+
+impl Kind {
+    /// The kind of a record's byte, `None` when unknown.
+    pub fn from_byte(b: u8) -> Option<Self> {
+        match b {
+            1 => Some(Kind::TriGrid),
+            2 => Some(Kind::QSplat),
+            _ => None,
+        }
+    }
 }
 
 /// The shadows a scene asks for (the pack's byte; present without the `shadows` feature, so that

@@ -195,7 +195,10 @@ impl core::fmt::Display for PackError {
                 write!(f, "view {view} has the name of an earlier view")
             }
             PackError::UnknownKind { object, kind } => {
-                write!(f, "object {object} has unknown kind {kind} (1 = .tg)")
+                write!(
+                    f,
+                    "object {object} has unknown kind {kind} (1 = .tg, 2 = .qs)"
+                )
             }
             PackError::UnknownObjectFlags { object, flags } => {
                 write!(f, "object {object} has unknown flags {flags:#04x}")
@@ -492,7 +495,7 @@ impl<'a> Pack<'a> {
             let at = self.object_at(usize::from(i));
             c.name(at, false)?;
             let kind = u8_at(self.bytes, at + 16);
-            if kind != Kind::TriGrid as u8 {
+            if Kind::from_byte(kind).is_none() {
                 return Err(PackError::UnknownKind { object: i, kind });
             }
             let flags = u8_at(self.bytes, at + 17);
@@ -641,7 +644,7 @@ impl<'a> Pack<'a> {
         let len = u32_at(b, at + 32) as usize;
         Some(ObjectRecord {
             name: name_at(b, at),
-            kind: Kind::TriGrid,
+            kind: Kind::from_byte(u8_at(b, at + 16)).unwrap_or(Kind::TriGrid),
             casts_shadows: flags & FLAG_CASTS != 0,
             ground: flags & FLAG_GROUND != 0,
             in_bounds: flags & FLAG_IN_BOUNDS != 0,

@@ -18,12 +18,21 @@
 //! object's frame already holds; the tri-grid frame is on the stack, the light frame where the
 //! caller keeps it ([`render_scene_in`]: a `static` on the device).
 //!
+//! - **QSplat objects** (kind 2, feature `qsplat`): drawn through their own [`QsFrame`] and
+//!   [`render_qs`], their depth mapped over the same shared range
+//!   ([`QsFrame::share_depth_range`]) and their samples through the same slot sink. QSplat has no
+//!   shadow code: in a shadowed scene a QSplat object is drawn unshadowed (after the shadow map is
+//!   filled, in the one-pass light order like any object) and casts nothing. A build without
+//!   `qsplat` refuses such a scene in [`Scene::open`] ([`SceneError::NoQSplat`]).
+//!
 //! Setup uses floats, as every frame setup does; per splat the slot sink is integer only.
 
 use super::pack::Pack;
-use super::{ObjectRecord, PackShadows, MAX_OBJECTS, MAX_SLOTS};
+use super::{Kind, ObjectRecord, PackShadows, MAX_OBJECTS, MAX_SLOTS};
 use crate::camera::{self, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
 use crate::normal::NORMAL_BITS;
+#[cfg(feature = "qsplat")]
+use crate::qs::{render_qs, QSplat, QsError, QsFrame, QsRenderOptions};
 use crate::raster::Kernel;
 use crate::shade::{Material, ShadingTable};
 #[cfg(feature = "shadows")]
@@ -82,6 +91,25 @@ pub enum SceneError {
         /// Depths given.
         given: u32,
     },
+    /// An object is a QSplat file but this build has no QSplat reader (feature `qsplat`).
+    NoQSplat {
+        /// The object.
+        object: u8,
+    },
+    /// An object's QSplat file fails its reader's checks.
+    #[cfg(feature = "qsplat")]
+    QSplatObject {
+        /// The object.
+        object: u8,
+        /// What its reader found.
+        error: QsError,
+    },
+    /// A QSplat object's frame cannot be set up (camera, placement or cutoff not finite and
+    /// positive).
+    QSplatFrame {
+        /// The object.
+        object: u8,
+    },
 }
 
 impl core::error::Error for SceneError {}
@@ -112,6 +140,17 @@ impl core::fmt::Display for SceneError {
                 f,
                 "the shadow map needs {need} depths but the buffer holds {given}"
             ),
+            SceneError::NoQSplat { object } => write!(
+                f,
+                "object {object} is a QSplat (.qs) file but this build has no QSplat reader \
+                 (feature `qsplat`)"
+            ),
+            #[cfg(feature = "qsplat")]
+            SceneError::QSplatObject { object, error } => write!(f, "object {object}: {error}"),
+            SceneError::QSplatFrame { object } => write!(
+                f,
+                "object {object}: camera, placement or cutoff is not finite and positive"
+            ),
         }
     }
 }
@@ -121,6 +160,9 @@ impl core::fmt::Display for SceneError {
 pub struct Scene<'a> {
     pack: Pack<'a>,
     grids: [Option<TriGrid<'a>>; MAX_OBJECTS],
+    /// The QSplat objects' opened files.
+    #[cfg(feature = "qsplat")]
+    qsplats: [Option<QSplat<'a>>; MAX_OBJECTS],
     /// World-space bounding box of each object (its file's box, placed).
     bounds: [[Vec3; 2]; MAX_OBJECTS],
 }
@@ -195,10 +237,31 @@ impl<'a> Scene<'a> {
     /// materials than its record maps.
     pub fn open(pack: Pack<'a>, verify: Verify) -> Result<Self, SceneError> {
         let mut grids = [None; MAX_OBJECTS];
+        #[cfg(feature = "qsplat")]
+        let mut qsplats = [None; MAX_OBJECTS];
         let mut bounds = [[[0.0; 3]; 2]; MAX_OBJECTS];
         for i in 0..pack.object_count() {
             let object = i as u8;
             let Some(rec) = pack.object(i) else { break };
+            if rec.kind == Kind::QSplat {
+                #[cfg(feature = "qsplat")]
+                {
+                    let file = QSplat::open(rec.data)
+                        .map_err(|error| SceneError::QSplatObject { object, error })?;
+                    if rec.materials != 1 {
+                        return Err(SceneError::MaterialBits {
+                            object,
+                            bits: 0,
+                            materials: rec.materials,
+                        });
+                    }
+                    bounds[i] = placed_box(&rec.placement, file.bounds());
+                    qsplats[i] = Some(file);
+                    continue;
+                }
+                #[cfg(not(feature = "qsplat"))]
+                return Err(SceneError::NoQSplat { object });
+            }
             let grid = TriGrid::open(rec.data, verify)
                 .map_err(|error| SceneError::Object { object, error })?;
             let h = *grid.header();
@@ -219,6 +282,8 @@ impl<'a> Scene<'a> {
         Ok(Scene {
             pack,
             grids,
+            #[cfg(feature = "qsplat")]
+            qsplats,
             bounds,
         })
     }
@@ -238,9 +303,15 @@ impl<'a> Scene<'a> {
         self.len() == 0
     }
 
-    /// Object `i`'s opened file.
+    /// Object `i`'s opened file, when it is a tri-grid (`None` for a QSplat object).
     pub fn grid(&self, i: usize) -> Option<&TriGrid<'a>> {
         self.grids.get(i)?.as_ref()
+    }
+
+    /// Object `i`'s opened file, when it is a QSplat file (`None` for a tri-grid).
+    #[cfg(feature = "qsplat")]
+    pub fn qsplat(&self, i: usize) -> Option<&QSplat<'a>> {
+        self.qsplats.get(i)?.as_ref()
     }
 
     /// Object `i`'s world-space bounding box (min, max).
@@ -522,6 +593,12 @@ fn render_shadowed<S: SplatSink>(
     }
     for (k, &i) in order[..n].iter().enumerate() {
         let i = usize::from(i);
+        // QSplat has no shadow code: drawn unshadowed, casting nothing.
+        if let Some(st) = draw_qsplat(scene, i, camera, opts, range, sink)? {
+            add(&mut stats.total, &st);
+            stats.objects[i] = st;
+            continue;
+        }
         let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
             continue;
         };
@@ -556,6 +633,11 @@ fn render_unshadowed<S: SplatSink>(
     let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
     for i in 0..scene.len() {
+        if let Some(st) = draw_qsplat(scene, i, camera, opts, range, sink)? {
+            add(&mut stats.total, &st);
+            stats.objects[i] = st;
+            continue;
+        }
         let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
             continue;
         };
@@ -565,6 +647,45 @@ fn render_unshadowed<S: SplatSink>(
         stats.objects[i] = st;
     }
     Ok(stats)
+}
+
+/// Draws object `i` when it is a QSplat file (`None` otherwise): its own frame, its depth over the
+/// scene's `range`, its samples through the slot sink. Never shadowed.
+#[cfg(feature = "qsplat")]
+fn draw_qsplat<S: SplatSink>(
+    scene: &Scene<'_>,
+    i: usize,
+    camera: &Camera,
+    opts: &SceneOptions,
+    range: DepthRange,
+    sink: &mut S,
+) -> Result<Option<Stats>, SceneError> {
+    let (Some(file), Some(rec)) = (scene.qsplat(i), scene.pack.object(i)) else {
+        return Ok(None);
+    };
+    let qopts = QsRenderOptions {
+        cutoff_px: opts.cutoff_px,
+        kernel: opts.kernel,
+        backface_culling: opts.backface_culling,
+    };
+    let mut frame = QsFrame::new(file, &rec.placement, camera, &qopts)
+        .map_err(|_| SceneError::QSplatFrame { object: i as u8 })?;
+    frame.share_depth_range(range);
+    let mut s = slotted(scene, i, sink);
+    Ok(Some(render_qs(file, &frame, &mut s)))
+}
+
+/// Without the `qsplat` feature [`Scene::open`] refuses QSplat objects: nothing to draw here.
+#[cfg(not(feature = "qsplat"))]
+fn draw_qsplat<S: SplatSink>(
+    _scene: &Scene<'_>,
+    _i: usize,
+    _camera: &Camera,
+    _opts: &SceneOptions,
+    _range: DepthRange,
+    _sink: &mut S,
+) -> Result<Option<Stats>, SceneError> {
+    Ok(None)
 }
 
 /// The slot sink of object `i` in front of `sink`.
@@ -591,7 +712,7 @@ pub struct RamBudget {
     /// Block cache (0: a pack in flash or RAM is resident, read in place).
     pub cache: usize,
     /// Per-frame setup live at a time (one object's tri-grid frame, on the stack, and with
-    /// shadows its light frame, a `static` on the device).
+    /// shadows its light frame, a `static` on the device; with QSplat objects their frame too).
     pub frame_setup: usize,
     /// The opened scene (pack view and the objects' readers).
     pub scene: usize,
@@ -639,13 +760,83 @@ pub fn ram_budget(pack: &Pack<'_>, shadows: PackShadows, map_size: usize) -> Ram
     };
     #[cfg(not(feature = "shadows"))]
     let light = 0;
+    // A QSplat object's frame is on the stack beside the tri-grid frame while it is drawn.
+    let has_qs =
+        (0..pack.object_count()).any(|i| pack.object(i).is_some_and(|r| r.kind == Kind::QSplat));
+    #[cfg(feature = "qsplat")]
+    let qs_frame = if has_qs {
+        core::mem::size_of::<QsFrame>()
+    } else {
+        0
+    };
+    #[cfg(not(feature = "qsplat"))]
+    let qs_frame = {
+        let _ = has_qs;
+        0
+    };
     RamBudget {
         framebuffer: WIDTH * HEIGHT * 2,
         depth: WIDTH * HEIGHT * 2,
         shadow_map: if shadowed { side * side * 2 } else { 0 },
         shading_tables: shading_table_bytes(pack.slot_count()),
         cache: 0,
-        frame_setup: core::mem::size_of::<TgFrame>() + light,
+        frame_setup: core::mem::size_of::<TgFrame>() + light + qs_frame,
         scene: core::mem::size_of::<Scene<'_>>(),
+    }
+}
+
+#[cfg(all(test, feature = "bake"))]
+mod tests {
+    use super::*;
+    use crate::camera::Placement;
+    use crate::scene::write::{write_pack, PackContents, PackObject};
+    use crate::scene::Kind;
+
+    /// A pack of one kind-2 object whose data is not a `.qs` file.
+    fn qsplat_pack() -> std::vec::Vec<u8> {
+        write_pack(&PackContents {
+            objects: std::vec![PackObject {
+                name: "q".into(),
+                kind: Kind::QSplat,
+                data: std::vec![0u8; 64],
+                placement: Placement::IDENTITY,
+                slots: std::vec![0],
+                casts_shadows: false,
+                ground: false,
+                in_bounds: true,
+                depth_asked: 0,
+                depth_kept: 0,
+                savings: Default::default(),
+            }],
+            materials: std::vec![("m".into(), crate::shade::DEFAULT_MATERIAL)],
+            views: std::vec![],
+            path: std::vec![],
+            light_az_el: (0.0, 45.0),
+            shadows: PackShadows::Off,
+            shadow_map_size: 0,
+            fov_deg: 45.0,
+            min_cell_px: 0.0,
+            sphere: Sphere {
+                center: [0.0; 3],
+                radius: 1.0,
+            },
+            align_log2: 9,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn scene_kind_2_objects_are_opened_by_the_qsplat_reader_or_refused_without_it() {
+        let bytes = qsplat_pack();
+        let pack = Pack::open(&bytes).unwrap();
+        assert_eq!(pack.object(0).unwrap().kind, Kind::QSplat);
+        let e = Scene::open(pack, Verify::Full).unwrap_err();
+        #[cfg(not(feature = "qsplat"))]
+        {
+            assert_eq!(e, SceneError::NoQSplat { object: 0 });
+            assert!(std::format!("{e}").contains("no QSplat reader"));
+        }
+        #[cfg(feature = "qsplat")]
+        assert!(matches!(e, SceneError::QSplatObject { object: 0, .. }));
     }
 }

@@ -17,7 +17,9 @@ use crate::shade::Material;
 pub struct PackObject {
     /// Name, at most 16 bytes of UTF-8.
     pub name: String,
-    /// Its `.tg` file.
+    /// What its file is.
+    pub kind: super::Kind,
+    /// Its `.tg` or `.qs` file.
     pub data: Vec<u8>,
     /// Where it sits in the world.
     pub placement: Placement,
@@ -201,7 +203,7 @@ pub fn write_pack(c: &PackContents) -> Result<Vec<u8>, PackWriteError> {
         let at = HEADER_BYTES + i * OBJECT_BYTES;
         let r = &mut out[at..at + OBJECT_BYTES];
         put_name(&mut r[0..16], &o.name, false)?;
-        r[16] = super::Kind::TriGrid as u8;
+        r[16] = o.kind as u8;
         r[17] = (u8::from(o.casts_shadows) * FLAG_CASTS)
             | (u8::from(o.ground) * FLAG_GROUND)
             | (u8::from(o.in_bounds) * FLAG_IN_BOUNDS);

@@ -23,8 +23,9 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use pocketsplat_core::bake::{bake_grid, BakeOptions, BakedGrid, TriMesh};
 use pocketsplat_core::camera::{Camera, Placement, Sphere, Vec3, View, HEIGHT, WIDTH};
+use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
-use pocketsplat_core::scene::{Pack, PackShadows, Savings, Scene as CoreScene, MAX_SLOTS};
+use pocketsplat_core::scene::{Kind, Pack, PackShadows, Savings, Scene as CoreScene, MAX_SLOTS};
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
@@ -59,11 +60,13 @@ pub fn depth_near(rho: u8, depth: u8, to_rho: u8) -> u8 {
 pub struct LoadedObject {
     /// Its mesh in model units (`None` for a `.tg` file).
     pub mesh: Option<TriMesh>,
-    /// A `.tg` file's bytes (`None` for a mesh).
+    /// A `.tg` file's bytes (`None` for a mesh or a `.qs` file).
     pub tg: Option<Vec<u8>>,
+    /// A `.qs` file's bytes (`None` for a mesh or a `.tg` file): packed as it is, kind 2.
+    pub qs: Option<Vec<u8>>,
     /// Where it sits in the world.
     pub placement: Placement,
-    /// Its model-space bounding box as its `.tg` file stores it.
+    /// Its model-space bounding box as its `.tg` (or `.qs`) file stores it.
     pub bounds: [[f32; 3]; 2],
     /// Time spent reading or generating it.
     pub load: Duration,
@@ -133,10 +136,29 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
     {
         let t = Instant::now();
         let what = || format!("{}: object {:?}", scene.path.display(), o.name);
+        let mut qs = None;
         let (mesh, tg) = match source {
             Source::Mesh(path) => (Some(ply::load_mesh(path).with_context(what)?), None),
             Source::Tree(spec) => (Some(spec.mesh()), None),
             Source::Ground(g) => (Some(g.mesh(names.len() > 1)), None),
+            Source::File(path)
+                if crate::qsplat::is_qs(path)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", what()))? =>
+            {
+                let bytes =
+                    crate::qsplat::read_qs(path).map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
+                if names.len() != 1 {
+                    bail!(
+                        "{}: {} is a .qs file, which has one material: give material = \"...\", \
+                         not {} materials",
+                        what(),
+                        path.display(),
+                        names.len()
+                    );
+                }
+                qs = Some(bytes);
+                (None, None)
+            }
             Source::File(path) => {
                 let bytes = std::fs::read(path)
                     .with_context(|| format!("{}: cannot read {}", what(), path.display()))?;
@@ -163,6 +185,11 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
         }
         let bounds = match (&mesh, &tg) {
             (Some(m), _) => m.bounds_f32(),
+            (None, None) if qs.is_some() => {
+                let q = QSplat::open(qs.as_deref().unwrap_or(&[]))
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
+                q.bounds()
+            }
             (None, Some(b)) => {
                 let g = TriGrid::open(b, Verify::Structure)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
@@ -213,6 +240,7 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
         out.push(LoadedObject {
             mesh,
             tg,
+            qs,
             placement,
             bounds,
             load: t.elapsed(),
@@ -419,6 +447,11 @@ pub fn bake_loaded(
     for (i, (o, l)) in f.objects.iter().zip(objects).enumerate() {
         let t = Instant::now();
         let what = || format!("{}: object {:?}", scene.path.display(), o.name);
+        let kind = if l.qs.is_some() {
+            Kind::QSplat
+        } else {
+            Kind::TriGrid
+        };
         let (data, asked, kept, savings, samples) = match (&l.mesh, &l.tg) {
             (Some(mesh), _) => {
                 let asked = depth_near(
@@ -469,7 +502,16 @@ pub fn bake_loaded(
                 let d = g.header().depth;
                 (bytes.clone(), d, d, Savings::default(), g.total_samples())
             }
-            (None, None) => unreachable!("a source is a mesh or a file"),
+            (None, None) => {
+                let Some(bytes) = &l.qs else {
+                    unreachable!("a source is a mesh or a file")
+                };
+                let q = QSplat::open(bytes).map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
+                let c = q.counts();
+                let d = c.max_depth;
+                let samples = c.leaves + c.interior + u64::from(c.trees);
+                (bytes.clone(), d, d, Savings::default(), samples)
+            }
         };
         reports.push(ObjectReport {
             name: o.name.clone(),
@@ -483,10 +525,12 @@ pub fn bake_loaded(
         });
         pack_objects.push(PackObject {
             name: o.name.clone(),
+            kind,
             data,
             placement: l.placement,
             slots: object_slots[i].clone(),
-            casts_shadows: o.casts_shadows,
+            // QSplat has no shadow code: a .qs object casts nothing.
+            casts_shadows: o.casts_shadows && kind == Kind::TriGrid,
             ground: matches!(scene.sources[i], Source::Ground(_)),
             in_bounds: o.in_bounds,
             depth_asked: asked,
@@ -564,7 +608,7 @@ pub fn world_mesh(
     {
         let Some(mesh) = &l.mesh else {
             bail!(
-                "{}: object {:?} is a .tg file: no mesh for the reference renderer",
+                "{}: object {:?} is a baked .tg or .qs file: no mesh for the reference renderer",
                 scene.path.display(),
                 o.name
             );

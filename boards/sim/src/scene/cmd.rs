@@ -233,11 +233,9 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
     let pack = scene.pack();
     let mut objects = Vec::new();
     for i in 0..scene.len() {
-        let (Some(r), Some(g)) = (pack.object(i), scene.grid(i)) else {
+        let Some(r) = pack.object(i) else {
             continue;
         };
-        let h = g.header();
-        let info = crate::cmd::info::tg_info(g);
         let slots: Vec<String> = r.slots[..usize::from(r.materials)]
             .iter()
             .map(|&s| {
@@ -246,6 +244,38 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
                     .to_string()
             })
             .collect();
+        if let Some(q) = scene.qsplat(i) {
+            let c = q.counts();
+            objects.push(json!({
+                "name": r.name,
+                "format": "qsplat",
+                "depth_asked": r.depth_asked,
+                "depth_kept": r.depth_kept,
+                "samples": c.leaves + c.interior + u64::from(c.trees),
+                "leaf_samples": c.leaves,
+                "file_bytes": r.data.len(),
+                "materials": slots,
+                "material_bits": 0,
+                "color": c.color_trees > 0,
+                "casts_shadows": false,
+                "ground": r.ground,
+                "scale": r.placement.scale,
+                "translation": r.placement.translation,
+                "saved": {
+                    "levels": r.savings.levels,
+                    "color": r.savings.color,
+                    "material_bits": r.savings.material_bits,
+                    "total": u64::from(r.savings.levels) + u64::from(r.savings.color)
+                        + u64::from(r.savings.material_bits),
+                },
+            }));
+            continue;
+        }
+        let Some(g) = scene.grid(i) else {
+            continue;
+        };
+        let h = g.header();
+        let info = crate::cmd::info::tg_info(g);
         objects.push(json!({
             "name": r.name,
             "format": match h.rho { 2 => "octree", _ => "tri-grid" },

@@ -29,7 +29,7 @@
 //! [[objects]]
 //! name = "bunny"
 //! model = "bun_zipper.ply.gz"               # or mesh = "path/relative/to/this/file.ply", or
-//!                                           # file = "baked.tg", or tree = {..}, or ground = {..}
+//!                                           # file = "baked.tg" or "baked.qs", or tree = {..}, or ground = {..}
 //! depth = 5                                 # subdivisions to bake (levels the views cannot resolve are dropped)
 //! material = "clay"                         # or materials = ["a", "b"] for a mesh with material indices
 //! scale = 4.0                               # uniform; or height = 0.6 (world height of its box)
@@ -50,6 +50,11 @@
 //! dist = 2.5
 //! ```
 //!
+//! **Baked files.** `file` names a `.tg` or a `.qs` (QSplat) file, told apart by its magic (or,
+//! failing that, its `.qs` extension), packed as it is (kind 1 or 2, `PACK.md`). A `.qs` object has
+//! one material (`material = "..."`), takes no `depth`, and casts no shadows (QSplat has no shadow
+//! code; it is drawn unshadowed).
+//!
 //! **Where files are found.** `mesh` and `file` paths are relative to the scene file (or absolute).
 //! `model` names a file in the models folder: `$POCKETSPLAT_MODELS` when set, else the scene's
 //! `models` key (relative to the scene file); without either it is an error that says so.
@@ -62,6 +67,9 @@ pub mod cmd;
 pub mod ground;
 pub mod render;
 pub mod tree;
+
+#[cfg(test)]
+mod qs_tests;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -296,7 +304,7 @@ pub struct ObjectSpec {
     pub mesh: Option<String>,
     /// A mesh file in the models folder.
     pub model: Option<String>,
-    /// An already baked `.tg` file, relative to the scene file.
+    /// An already baked `.tg` or `.qs` file, relative to the scene file.
     pub file: Option<String>,
     /// A generated tree.
     pub tree: Option<tree::TreeSpec>,
@@ -366,7 +374,7 @@ pub struct PathKey {
 pub enum Source {
     /// A mesh file to bake.
     Mesh(PathBuf),
-    /// A `.tg` file to pack as it is.
+    /// A `.tg` or `.qs` file to pack as it is.
     File(PathBuf),
     /// A generated tree to bake.
     Tree(tree::TreeSpec),
@@ -570,7 +578,7 @@ impl Scene {
             match (&source, o.depth) {
                 (Source::File(_), Some(_)) => {
                     bail!(at(
-                        "depth applies to what is baked, not to a .tg file".into()
+                        "depth applies to what is baked, not to a .tg or .qs file".into()
                     ))
                 }
                 (Source::File(_), None) => {}
