@@ -261,13 +261,7 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
                 "ground": r.ground,
                 "scale": r.placement.scale,
                 "translation": r.placement.translation,
-                "saved": {
-                    "levels": r.savings.levels,
-                    "color": r.savings.color,
-                    "material_bits": r.savings.material_bits,
-                    "total": u64::from(r.savings.levels) + u64::from(r.savings.color)
-                        + u64::from(r.savings.material_bits),
-                },
+                "saved": saved_json(&r.savings),
             }));
             continue;
         }
@@ -291,13 +285,7 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
             "ground": r.ground,
             "scale": r.placement.scale,
             "translation": r.placement.translation,
-            "saved": {
-                "levels": r.savings.levels,
-                "color": r.savings.color,
-                "material_bits": r.savings.material_bits,
-                "total": u64::from(r.savings.levels) + u64::from(r.savings.color)
-                    + u64::from(r.savings.material_bits),
-            },
+            "saved": saved_json(&r.savings),
         }));
     }
     let views: Vec<_> = (0..pack.view_count())
@@ -490,4 +478,14 @@ impl ViewScene for PackView<'_> {
 /// When the pack or an object's file is invalid; the message names `path`.
 pub fn open_view_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn ViewScene + 'a>> {
     Ok(Box::new(PackView::new(open_scene(path, bytes)?)))
+}
+
+/// What the bake left out of an object, as `info --json` lists it.
+fn saved_json(s: &pocketsplat_core::scene::Savings) -> serde_json::Value {
+    json!({
+        "levels": s.levels,
+        "color": s.color,
+        "material_bits": s.material_bits,
+        "total": u64::from(s.levels) + u64::from(s.color) + u64::from(s.material_bits),
+    })
 }
