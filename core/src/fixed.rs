@@ -3,7 +3,7 @@
 //! | quantity | format |
 //! |---|---|
 //! | projected homogeneous centre `(X, Y, W)` of a cell | `i32`, per-frame scale: `X/W`, `Y/W` are pixels; `\|X\|, \|Y\|, 320·\|W\|` ≤ 2³⁰ over the root cube |
-//! | screen positions and splat sizes | pixels, Q4 (`i32`, 16 = 1 px) |
+//! | screen positions and splat sizes | pixels, Q8 (`i32`, 256 = 1 px) |
 //! | normals | Q14 (`i16`, 16384 = 1.0) |
 //! | shading weights and colour channels | Q16 |
 //! | depth | `u16`, linear in `W` over the frame's depth range, 0 = nearest |
@@ -13,9 +13,9 @@
 #![deny(clippy::float_arithmetic)]
 
 /// Fractional bits of screen positions and sizes.
-pub const SUBPIXEL_BITS: u32 = 4;
-/// One pixel in Q4.
-pub const ONE_PX_Q4: i32 = 1 << SUBPIXEL_BITS;
+pub const SUBPIXEL_BITS: u32 = 8;
+/// One pixel in Q8.
+pub const ONE_PX_Q8: i32 = 1 << SUBPIXEL_BITS;
 
 /// `RECIP[i] = round(2³⁹ / (256 + i))`: 1/m for mantissas m ∈ [1, 2] in steps of 1/256.
 static RECIP: [u32; 257] = {
@@ -44,9 +44,9 @@ pub fn recip(w: u32) -> (u32, u32) {
     (r, 62 - lz)
 }
 
-/// `x / w` in Q4 via [`recip`], rounded to nearest, for `|x| < 2³¹`, `w > 0`.
+/// `x / w` in Q8 via [`recip`], rounded to nearest, for `|x| < 2³¹`, `w > 0`.
 #[inline]
-pub fn div_q4(x: i32, w: u32) -> i32 {
+pub fn div_q8(x: i32, w: u32) -> i32 {
     let (r, shift) = recip(w);
     let sh = shift - SUBPIXEL_BITS;
     let p = i64::from(x) * i64::from(r) + (1i64 << (sh - 1));
@@ -74,9 +74,9 @@ mod tests {
     }
 
     #[test]
-    fn division_in_q4() {
-        assert_eq!(div_q4(120 * 1000, 1000), 120 * 16);
-        assert_eq!(div_q4(-5 * 4096, 4096), -5 * 16);
-        assert!((div_q4(1 << 30, 1 << 21) - (512 * 16)).abs() <= 1);
+    fn division_in_q8() {
+        assert_eq!(div_q8(120 * 1000, 1000), 120 * 256);
+        assert_eq!(div_q8(-5 * 4096, 4096), -5 * 256);
+        assert!((div_q8(1 << 30, 1 << 21) - (512 * 256)).abs() <= 1);
     }
 }

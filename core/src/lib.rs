@@ -16,6 +16,17 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+/// Counts into a frame's [`splat::Stats`] with the `stats` feature only: the device build keeps no
+/// per-node statistics (without the feature a frame's counts are all 0).
+macro_rules! count {
+    ($($counting:tt)*) => {
+        #[cfg(any(test, feature = "stats"))]
+        {
+            $($counting)*;
+        }
+    };
+}
+
 pub mod camera;
 pub mod crc;
 pub mod fixed;

@@ -15,7 +15,7 @@ use embedded_graphics_core::prelude::{PixelColor, RawData};
 use embedded_graphics_core::primitives::Rectangle;
 use embedded_graphics_core::Pixel;
 
-use crate::fixed::{ONE_PX_Q4, SUBPIXEL_BITS};
+use crate::fixed::{ONE_PX_Q8, SUBPIXEL_BITS};
 
 /// Farthest depth: the value the depth buffer is cleared to.
 pub const DEPTH_FAR: u16 = u16::MAX;
@@ -33,15 +33,15 @@ pub enum Kernel {
     Round,
 }
 
-/// One splat for the raster: position and diameter in Q4 pixels, depth, colour.
+/// One splat for the raster: position and diameter in Q8 pixels, depth, colour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Splat {
-    /// Centre x, Q4 pixels.
-    pub x_q4: i32,
-    /// Centre y, Q4 pixels (down).
-    pub y_q4: i32,
-    /// Diameter, Q4 pixels.
-    pub size_q4: i32,
+    /// Centre x, Q8 pixels.
+    pub x_q8: i32,
+    /// Centre y, Q8 pixels (down).
+    pub y_q8: i32,
+    /// Diameter, Q8 pixels.
+    pub size_q8: i32,
     /// Depth, 0 = nearest.
     pub depth: u16,
     /// RGB565 colour.
@@ -91,30 +91,67 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
     }
 
     /// Draws a splat with a depth test; returns the number of pixels written. Pixels are those whose
-    /// centres fall inside the kernel; a splat smaller than a pixel writes the pixel under its centre.
-    #[inline]
-    pub fn splat(&mut self, s: &Splat, kernel: Kernel) -> u32 {
-        let size = s.size_q4.clamp(1, MAX_SPLAT_PX * ONE_PX_Q4);
-        let half = size >> 1;
-        // Pixel i is covered when its centre i + ½ lies in [x − half, x + half).
-        let first = |c: i32| (c - half + (ONE_PX_Q4 / 2 - 1)) >> SUBPIXEL_BITS;
-        let end = |c: i32| (c + half + (ONE_PX_Q4 / 2 - 1)) >> SUBPIXEL_BITS;
-        let (mut x0, mut x1, mut y0, mut y1) =
-            (first(s.x_q4), end(s.x_q4), first(s.y_q4), end(s.y_q4));
+    /// centres fall inside the kernel (a square of side `size_q8`, or a disc of that diameter);
+    /// unless `exact`, a splat that contains no pixel centre writes the pixel under its centre.
+    ///
+    /// A square splat of at most two pixels (nearly all of a frame at a 1 px cutoff) is drawn
+    /// inline here; larger and round ones by a loop out of line.
+    #[inline(always)]
+    pub fn splat(&mut self, s: &Splat, kernel: Kernel, exact: bool) -> u32 {
+        let size = s.size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8);
+        let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
+        if size > 2 * ONE_PX_Q8 || round {
+            return self.splat_area(*s, size, kernel, exact);
+        }
+        // At most two pixel centres per axis, and usually one pixel.
+        let (x0, x1, y0, y1) = footprint(s, size, exact);
+        let (x, y) = if x1 == x0 + 1 && y1 == y0 + 1 {
+            (x0, y0)
+        } else if x1 > x0 && y1 > y0 {
+            return self.splat_area(*s, size, kernel, exact);
+        } else if exact {
+            return 0;
+        } else {
+            (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS)
+        };
+        if x < 0 || y < 0 || x >= W as i32 || y >= H as i32 {
+            return 0;
+        }
+        let (x, y) = (x as usize, y as usize);
+        let d = &mut self.depth[y][x];
+        if s.depth < *d {
+            *d = s.depth;
+            self.color[y][x] = s.color;
+            1
+        } else {
+            0
+        }
+    }
+
+    /// [`Framebuffer::splat`] of a splat of `size` (clamped) larger than a pixel, or round and
+    /// exact.
+    #[inline(never)]
+    fn splat_area(&mut self, s: Splat, size: i32, kernel: Kernel, exact: bool) -> u32 {
+        let (mut x0, mut x1, mut y0, mut y1) = footprint(&s, size, exact);
         if x1 <= x0 || y1 <= y0 {
-            (x0, y0) = (s.x_q4 >> SUBPIXEL_BITS, s.y_q4 >> SUBPIXEL_BITS);
+            if exact {
+                return 0;
+            }
+            (x0, y0) = (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS);
             (x1, y1) = (x0 + 1, y0 + 1);
         }
+        let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
+        let half = half_side(size, exact);
         let (x0, x1) = (x0.max(0), x1.min(W as i32));
         let (y0, y1) = (y0.max(0), y1.min(H as i32));
         let mut written = 0;
         let r2 = i64::from(half) * i64::from(half);
         for y in y0..y1 {
             let (crow, drow) = (&mut self.color[y as usize], &mut self.depth[y as usize]);
-            let dy = i64::from((y << SUBPIXEL_BITS) + ONE_PX_Q4 / 2 - s.y_q4);
+            let dy = i64::from((y << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.y_q8);
             for x in x0..x1 {
-                if kernel == Kernel::Round && size > ONE_PX_Q4 {
-                    let dx = i64::from((x << SUBPIXEL_BITS) + ONE_PX_Q4 / 2 - s.x_q4);
+                if round {
+                    let dx = i64::from((x << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.x_q8);
                     if dx * dx + dy * dy > r2 {
                         continue;
                     }
@@ -129,6 +166,43 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
         }
         written
     }
+}
+
+/// Whether an exact square footprint of `size_q8` at `(x_q8, y_q8)` contains a pixel centre
+/// (what [`Framebuffer::splat`] draws of it: nothing when this is false), so that a traversal can
+/// skip the rest of a splat that would draw nothing.
+#[inline(always)]
+pub fn covers_pixel_centre(x_q8: i32, y_q8: i32, size_q8: i32) -> bool {
+    let s = Splat {
+        x_q8,
+        y_q8,
+        size_q8,
+        depth: 0,
+        color: 0,
+    };
+    let (x0, x1, y0, y1) = footprint(&s, size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8), true);
+    x1 > x0 && y1 > y0
+}
+
+/// Half the side of a splat of `size` (Q8): an exact footprint rounds up, so that rounding never
+/// opens a gap between neighbours.
+#[inline(always)]
+fn half_side(size: i32, exact: bool) -> i32 {
+    if exact {
+        (size + 1) >> 1
+    } else {
+        size >> 1
+    }
+}
+
+/// The pixels `x0..x1 × y0..y1` whose centres `i + ½` lie in `[x − half, x + half)` (and the same
+/// in `y`) for a splat of `size` (empty when none does).
+#[inline(always)]
+fn footprint(s: &Splat, size: i32, exact: bool) -> (i32, i32, i32, i32) {
+    let half = half_side(size, exact);
+    let first = |c: i32| (c - half + (ONE_PX_Q8 / 2 - 1)) >> SUBPIXEL_BITS;
+    let end = |c: i32| (c + half + (ONE_PX_Q8 / 2 - 1)) >> SUBPIXEL_BITS;
+    (first(s.x_q8), end(s.x_q8), first(s.y_q8), end(s.y_q8))
 }
 
 impl<const W: usize, const H: usize> OriginDimensions for Framebuffer<'_, W, H> {
@@ -222,13 +296,13 @@ mod tests {
         fb.clear(0);
         // Centre (10, 20), 4 px wide: pixels 8..12 × 18..22.
         let s = Splat {
-            x_q4: 160,
-            y_q4: 320,
-            size_q4: 64,
+            x_q8: 10 * 256,
+            y_q8: 20 * 256,
+            size_q8: 4 * 256,
             depth: 100,
             color: 0xFFFF,
         };
-        assert_eq!(fb.splat(&s, Kernel::Square), 16);
+        assert_eq!(fb.splat(&s, Kernel::Square, false), 16);
         assert_eq!(fb.rows()[18][8], 0xFFFF);
         assert_eq!(fb.rows()[17][8], 0);
         assert_eq!(fb.rows()[21][11], 0xFFFF);
@@ -241,7 +315,8 @@ mod tests {
                     color: 1,
                     ..s
                 },
-                Kernel::Square
+                Kernel::Square,
+                false
             ),
             0
         );
@@ -252,7 +327,8 @@ mod tests {
                     color: 2,
                     ..s
                 },
-                Kernel::Square
+                Kernel::Square,
+                false
             ),
             16
         );
@@ -260,13 +336,14 @@ mod tests {
         assert_eq!(
             fb.splat(
                 &Splat {
-                    x_q4: 5 * 16 + 3,
-                    y_q4: 7 * 16 + 15,
-                    size_q4: 4,
+                    x_q8: 5 * 256 + 48,
+                    y_q8: 7 * 256 + 240,
+                    size_q8: 4,
                     depth: 1,
                     color: 3
                 },
-                Kernel::Square
+                Kernel::Square,
+                false
             ),
             1
         );
@@ -275,13 +352,14 @@ mod tests {
         assert_eq!(
             fb.splat(
                 &Splat {
-                    x_q4: -1000,
-                    y_q4: 99999,
-                    size_q4: 9999,
+                    x_q8: -1000,
+                    y_q8: 99999,
+                    size_q8: 9999,
                     depth: 0,
                     color: 3
                 },
-                Kernel::Round
+                Kernel::Round,
+                false
             ),
             0
         );
@@ -294,13 +372,14 @@ mod tests {
         fb.clear(0);
         let n = fb.splat(
             &Splat {
-                x_q4: 100 * 16,
-                y_q4: 100 * 16,
-                size_q4: 20 * 16,
+                x_q8: 100 * 256,
+                y_q8: 100 * 256,
+                size_q8: 20 * 256,
                 depth: 1,
                 color: 9,
             },
             Kernel::Round,
+            false,
         );
         // π·10² ≈ 314 pixels.
         assert!((300..=330).contains(&n), "{n}");

@@ -146,10 +146,18 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
         changed
     }
 
-    /// Recomputes slot `k`'s colours for material `m`, light `l` and viewer `v`.
-    fn build_slot(&mut self, k: usize, m: &Material, l: Vec3, v: Vec3) {
-        let lq = q14(l);
-        let hq = q14(camera::normalize(camera::add(l, v)));
+    /// Builds each slot's specular power table for `materials`, the part of a rebuild that depends
+    /// on the material alone (1025 soft-float powers, ~6 M instructions on a Cortex-M3): a
+    /// firmware does it once when it loads its model, so that no frame pays for it. Later updates
+    /// with the same materials only recompute the colours. Slots beyond `materials` are left.
+    pub fn prepare(&mut self, materials: &[Material]) {
+        for (k, m) in materials.iter().enumerate().take(MATERIALS) {
+            self.prepare_slot(k, m);
+        }
+    }
+
+    /// Slot `k`'s power table for `m`, unless it has it.
+    fn prepare_slot(&mut self, k: usize, m: &Material) {
         if self.pow_key[k] != Some(m.shininess) {
             for (i, p) in self.pow_q16[k].iter_mut().enumerate() {
                 let x = i as f32 / POW_STEPS as f32;
@@ -157,6 +165,13 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
             }
             self.pow_key[k] = Some(m.shininess);
         }
+    }
+
+    /// Recomputes slot `k`'s colours for material `m`, light `l` and viewer `v`.
+    fn build_slot(&mut self, k: usize, m: &Material, l: Vec3, v: Vec3) {
+        let lq = q14(l);
+        let hq = q14(camera::normalize(camera::add(l, v)));
+        self.prepare_slot(k, m);
         let (amb, dif, spc) = (q16(m.ambient), q16(m.diffuse), q16(m.specular));
         let base = m.color.map(q16);
         let shade = |c: i32, max: i32| {

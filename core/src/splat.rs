@@ -8,12 +8,12 @@ use crate::shade::ShadingTable;
 /// A splat as a traversal emits it: screen position, size, depth and the sample's attribute.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleSplat {
-    /// Centre x, Q4 pixels.
-    pub x_q4: i32,
-    /// Centre y, Q4 pixels (down).
-    pub y_q4: i32,
-    /// Diameter, Q4 pixels.
-    pub size_q4: i32,
+    /// Centre x, Q8 pixels.
+    pub x_q8: i32,
+    /// Centre y, Q8 pixels (down).
+    pub y_q8: i32,
+    /// Diameter, Q8 pixels.
+    pub size_q8: i32,
     /// Depth, 0 = nearest.
     pub depth: u16,
     /// Normal code | material << 13.
@@ -24,6 +24,10 @@ pub struct SampleSplat {
     pub index: u32,
     /// In shadow: shaded with the material's ambient term only.
     pub shadowed: bool,
+    /// Draw exactly the pixels whose centres the splat covers, none when it covers none (a
+    /// tri-grid cell: the cells of a surface tile its projection); otherwise at least the pixel
+    /// under its centre (a QSplat sphere). [`Framebuffer::splat`] says which pixels.
+    pub exact: bool,
 }
 
 /// Receives splats (a generic parameter of every traversal, so the call is inlined).
@@ -63,7 +67,7 @@ pub struct ShadedRaster<'f, 'b, 't, const W: usize, const H: usize, const M: usi
 impl<const W: usize, const H: usize, const M: usize> SplatSink
     for ShadedRaster<'_, '_, '_, W, H, M>
 {
-    #[inline]
+    #[inline(always)]
     fn splat(&mut self, s: &SampleSplat) {
         let color = if s.shadowed {
             self.table.shadowed(s.attr)
@@ -72,13 +76,14 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
         };
         self.fb.splat(
             &Splat {
-                x_q4: s.x_q4,
-                y_q4: s.y_q4,
-                size_q4: s.size_q4,
+                x_q8: s.x_q8,
+                y_q8: s.y_q8,
+                size_q8: s.size_q8,
                 depth: s.depth,
                 color,
             },
             self.kernel,
+            s.exact,
         );
     }
 }
@@ -95,6 +100,6 @@ impl SplatSink for NullSink {
     fn splat(&mut self, s: &SampleSplat) {
         self.checksum = self
             .checksum
-            .wrapping_add(s.x_q4 as u32 ^ (s.y_q4 as u32) << 7 ^ u32::from(s.depth));
+            .wrapping_add(s.x_q8 as u32 ^ (s.y_q8 as u32) << 7 ^ u32::from(s.depth));
     }
 }

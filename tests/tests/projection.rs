@@ -50,15 +50,15 @@ impl SplatSink for Check<'_> {
             .camera
             .project(c)
             .expect("a drawn splat is in front of the near plane");
-        let err = (f64::from(s.x_q4) / 16.0 - p[0])
+        let err = (f64::from(s.x_q8) / 256.0 - p[0])
             .abs()
-            .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+            .max((f64::from(s.y_q8) / 256.0 - p[1]).abs());
         self.worst = self.worst.max(err);
         self.splats += 1;
         assert!(
-            s.size_q4 > 0,
+            s.size_q8 > 0,
             "a splat of size {} is wrapped around",
-            s.size_q4
+            s.size_q8
         );
     }
 }

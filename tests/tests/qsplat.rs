@@ -158,9 +158,9 @@ impl SplatSink for Check<'_> {
             .camera
             .project(c)
             .expect("a drawn splat is in front of the near plane");
-        let err = (f64::from(s.x_q4) / 16.0 - p[0])
+        let err = (f64::from(s.x_q8) / 256.0 - p[0])
             .abs()
-            .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+            .max((f64::from(s.y_q8) / 256.0 - p[1]).abs());
         // Off screen (a large splat whose sphere reaches into the frustum) the error grows with the
         // distance from the image: W is a few thousand units a hair beyond the near plane, and its
         // rounding scales X/W. Measured relative to that distance there.
@@ -175,10 +175,10 @@ impl SplatSink for Check<'_> {
         }
         self.worst_px = self.worst_px.max(err);
         let size = 2.0 * r * self.camera.focal_px / p[2];
-        assert!(s.size_q4 > 0, "size {} wrapped around", s.size_q4);
+        assert!(s.size_q8 > 0, "size {} wrapped around", s.size_q8);
         if size < 1e5 {
-            // Q4 sizes are rounded down: 1/16 px of slack, then relative.
-            let rel = ((f64::from(s.size_q4) / 16.0 - size).abs() - 1.0 / 16.0).max(0.0) / size;
+            // Q8 sizes are rounded down: 1/256 px of slack, then relative.
+            let rel = ((f64::from(s.size_q8) / 256.0 - size).abs() - 1.0 / 256.0).max(0.0) / size;
             self.worst_size = self.worst_size.max(rel);
         }
         self.splats += 1;

@@ -159,6 +159,8 @@ mod firmware {
             p.shadow_map_size(),
             ram_budget(p, shadows, p.shadow_map_size()).total()
         );
+        // The materials' power tables, once, before the first frame (no view needs them rebuilt).
+        targets.table.prepare(&scene.materials::<{ pocketsplat_core::scene::MAX_SLOTS }>());
         for spec in scene_frame_specs(&scene) {
             match render_scene_view(&scene, spec, &mut targets, marks::hit) {
                 Ok(report) => hprintln!("{}", report),
@@ -205,6 +207,8 @@ mod firmware {
                 );
             }
         }
+        // The material's power table, once, before the first frame (no view needs it rebuilt).
+        targets.table.prepare(&[model.material()]);
         for spec in model.frame_specs() {
             match render_standard_view(&model, spec, &mut targets, marks::hit) {
                 Ok(report) => hprintln!("{}", report),

@@ -108,14 +108,13 @@ impl fmt::Display for SceneFrameReport<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "frame {} cutoff {} shadows {} crc {:#010x} splats {} nodes {}",
+            "frame {} cutoff {} shadows {} crc {:#010x} ",
             self.view_name,
             self.spec.cutoff_px,
             self.shadows.name(),
             self.crc,
-            self.stats.splats,
-            self.stats.nodes_visited
-        )
+        )?;
+        crate::views::write_counts(f, &self.stats)
     }
 }
 
@@ -227,16 +226,23 @@ mod tests {
             table_rebuilt: false,
         };
         let line = report.to_string();
+        let counts = if crate::views::COUNTED {
+            "splats 7 nodes 9"
+        } else {
+            "splats - nodes -"
+        };
         assert_eq!(
             line,
-            "frame top cutoff 4 shadows one-pass crc 0x00123456 splats 7 nodes 9"
+            format!("frame top cutoff 4 shadows one-pass crc 0x00123456 {counts}")
         );
         let parsed = FrameLine::parse(&line).unwrap();
         assert_eq!(
             (parsed.view, parsed.cutoff_px, parsed.shadows, parsed.crc),
             ("top", 4, Shadows::OnePass, 0x0012_3456)
         );
-        assert_eq!((parsed.splats, parsed.nodes), (7, 9));
+        if crate::views::COUNTED {
+            assert_eq!((parsed.splats, parsed.nodes), (Some(7), Some(9)));
+        }
     }
 
     #[test]

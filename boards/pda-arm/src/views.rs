@@ -209,14 +209,26 @@ impl fmt::Display for FrameReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "frame {} cutoff {} shadows {} crc {:#010x} splats {} nodes {}",
+            "frame {} cutoff {} shadows {} crc {:#010x} ",
             self.spec.view_name(),
             self.spec.cutoff_px,
             self.spec.shadows.name(),
             self.crc,
-            self.stats.splats,
-            self.stats.nodes_visited
-        )
+        )?;
+        write_counts(f, &self.stats)
+    }
+}
+
+/// Whether this build counts splats and nodes (the `stats` feature): a frame line then carries
+/// them; without it the traversal keeps no per-node counts and the line says `splats - nodes -`.
+pub const COUNTED: bool = cfg!(feature = "stats");
+
+/// `splats N nodes N` of a frame line, or `splats - nodes -` in a build that does not count.
+pub(crate) fn write_counts(f: &mut fmt::Formatter<'_>, stats: &Stats) -> fmt::Result {
+    if COUNTED {
+        write!(f, "splats {} nodes {}", stats.splats, stats.nodes_visited)
+    } else {
+        write!(f, "splats - nodes -")
     }
 }
 
@@ -231,10 +243,10 @@ pub struct FrameLine<'a> {
     pub shadows: Shadows,
     /// Frame CRC.
     pub crc: u32,
-    /// Splats drawn.
-    pub splats: u32,
-    /// Nodes visited.
-    pub nodes: u32,
+    /// Splats drawn (`None` from a build without counts, [`COUNTED`]).
+    pub splats: Option<u32>,
+    /// Nodes visited (`None` from a build without counts).
+    pub nodes: Option<u32>,
 }
 
 impl<'a> FrameLine<'a> {
@@ -247,8 +259,12 @@ impl<'a> FrameLine<'a> {
         let cutoff_px = after("cutoff")?.parse().ok()?;
         let shadows = Shadows::from_name(after("shadows")?)?;
         let crc = u32::from_str_radix(after("crc")?.strip_prefix("0x")?, 16).ok()?;
-        let splats = after("splats")?.parse().ok()?;
-        let nodes = after("nodes")?.parse().ok()?;
+        let count = |s: &str| match s {
+            "-" => Some(None),
+            n => n.parse().ok().map(Some),
+        };
+        let splats = count(after("splats")?)?;
+        let nodes = count(after("nodes")?)?;
         if w.next().is_some() {
             return None;
         }
@@ -272,12 +288,12 @@ impl<'a> FrameLine<'a> {
         })
     }
 
-    /// Whether this line reports the same frame, CRC and counts as `report`.
+    /// Whether this line reports the same frame, CRC and counts (where it has them) as `report`.
     pub fn matches(&self, report: &FrameReport) -> bool {
         self.spec() == Some(report.spec)
             && self.crc == report.crc
-            && self.splats == report.stats.splats
-            && self.nodes == report.stats.nodes_visited
+            && self.splats.is_none_or(|n| n == report.stats.splats)
+            && self.nodes.is_none_or(|n| n == report.stats.nodes_visited)
     }
 }
 
@@ -405,7 +421,7 @@ impl<'a> Model<'a> {
 
     /// The material every sample is shaded with: the default, in white for a coloured QSplat file
     /// (`pocketsplat render`'s rule, [`shading_material`]).
-    fn material(&self) -> Material {
+    pub fn material(&self) -> Material {
         match self {
             Model::TriGrid(_) => DEFAULT_MATERIAL,
             #[cfg(feature = "qsplat")]
@@ -755,10 +771,21 @@ mod tests {
             table_rebuilt: true,
         };
         let line = report.to_string();
+        let counts = if COUNTED {
+            "splats 12 nodes 345"
+        } else {
+            "splats - nodes -"
+        };
         assert_eq!(
             line,
-            "frame close cutoff 4 shadows one-pass crc 0x00abcdef splats 12 nodes 345"
+            format!("frame close cutoff 4 shadows one-pass crc 0x00abcdef {counts}")
         );
+        let counted = FrameLine::parse(
+            "frame close cutoff 4 shadows one-pass crc 0x00abcdef splats 12 nodes 345",
+        )
+        .unwrap();
+        assert_eq!((counted.splats, counted.nodes), (Some(12), Some(345)));
+        assert!(counted.matches(&report) == COUNTED);
         let parsed = FrameLine::parse(&line).unwrap();
         assert!(parsed.matches(&report));
         assert_eq!(parsed.spec(), Some(report.spec));

@@ -309,13 +309,13 @@ impl SplatSink for ClassTee<'_, '_, '_, '_, '_> {
         let l = self.to_light_q14;
         let cos = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) >> 14;
         let splat = Splat {
-            x_q4: s.x_q4,
-            y_q4: s.y_q4,
-            size_q4: s.size_q4,
+            x_q8: s.x_q8,
+            y_q8: s.y_q8,
+            size_q8: s.size_q8,
             depth: s.depth,
             color: if s.shadowed || cos <= 0 { 2 } else { 1 },
         };
-        self.class.splat(&splat, self.shaded.kernel);
+        self.class.splat(&splat, self.shaded.kernel, s.exact);
     }
 }
 

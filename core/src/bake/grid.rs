@@ -51,6 +51,9 @@ pub struct BakedGrid {
     pub bounds: [[f32; 3]; 2],
     /// Levels 0..=depth.
     pub levels: Vec<BakedLevel>,
+    /// Store normal cones in the file (ρ = 3 only; FORMAT.md), so that the traversal culls
+    /// subtrees that face away from the eye. On by default.
+    pub cones: bool,
 }
 
 impl BakedGrid {
@@ -225,6 +228,7 @@ pub fn bake_grid(
         origin,
         side,
         levels,
+        cones: opts.rho == 3,
     })
 }
 
@@ -468,7 +472,11 @@ mod tests {
             }
             for (i, &m) in level.masks.iter().enumerate() {
                 assert_eq!(tg.mask(l as u8, i as u32), m);
-                assert_eq!(u128::from(tg.mask32(l as u8, i as u32)), m);
+                // The stored word: the child bits, and the cone class above them.
+                let word = tg.mask32(l as u8, i as u32);
+                assert_eq!(u128::from(word & 0x07FF_FFFF), m);
+                assert_eq!(word >> 27, u32::from(tg.cone(l as u8, i as u32)));
+                assert!(tg.cone(l as u8, i as u32) > 0 && word >> 30 == 0);
             }
         }
     }

@@ -6,6 +6,7 @@
 // Geometry reads best with explicit axis indices (x, y, z), which this lint would rewrite.
 #![allow(clippy::needless_range_loop)]
 
+pub mod cone;
 mod geom;
 mod grid;
 mod mesh;

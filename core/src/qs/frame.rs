@@ -153,7 +153,7 @@ pub struct TreeFrame {
     pub(crate) ext: [Scale; 5],
     /// Draw instead of descending when `lod(r) ≤ W`.
     pub(crate) lod: Scale,
-    /// `size(r) / W` is the splat diameter in Q4 pixels.
+    /// `size(r) / W` is the splat diameter in Q8 pixels.
     pub(crate) size: Scale,
     /// Eye in backface units, relative to the root centre.
     pub(crate) eye: [i32; 3],
@@ -318,7 +318,7 @@ impl QsFrame {
         // Projected diameter 2·r·f/z: per model integer, in W units (world size × frame scale).
         let k = 2.0 * self.focal_px * unit * self.world_scale;
         let lod = Scale::new(k / self.cutoff_px);
-        let size = Scale::new(16.0 * k);
+        let size = Scale::new(f64::from(crate::fixed::ONE_PX_Q8) * k);
         // Backface units: every eye-to-node vector (at most |eye| + ~2 root radii) below 2²⁴.
         let eye = camera::scale(camera::sub(self.eye, c), 1.0 / unit);
         let reach = norm(eye) + 2.0 * f64::from(ROOT_RADIUS);

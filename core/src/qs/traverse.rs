@@ -43,13 +43,14 @@ impl<const W: usize, const H: usize, const M: usize> ColorSink
         };
         self.fb.splat(
             &Splat {
-                x_q4: s.x_q4,
-                y_q4: s.y_q4,
-                size_q4: s.size_q4,
+                x_q8: s.x_q8,
+                y_q8: s.y_q8,
+                size_q8: s.size_q8,
                 depth: s.depth,
                 color: modulate(lit, rgb565),
             },
             self.kernel,
+            s.exact,
         );
     }
 }
@@ -182,7 +183,7 @@ struct Walker<'t, 'f, 's, S> {
 
 impl<S: ColorSink> Walker<'_, '_, '_, S> {
     fn root(&mut self) {
-        self.stats.nodes_visited += 1;
+        count!(self.stats.nodes_visited += 1);
         let root = Sphere {
             c: [0; 3],
             xyw: self.tf.root,
@@ -194,7 +195,7 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         };
         // The root has no normal: it is never drawn or backface culled, only frustum tested.
         let Some(inside) = self.frustum(&root) else {
-            self.stats.culled += 1;
+            count!(self.stats.culled += 1);
             return;
         };
         let flags = Flags { inside, ..flags };
@@ -241,7 +242,7 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         level: u8,
         mut flags: Flags,
     ) {
-        self.stats.nodes_visited += 1;
+        count!(self.stats.nodes_visited += 1);
         // Validated below 7621; the parent's own sphere otherwise.
         let e = unpack(
             SPHERES
@@ -278,7 +279,7 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         if !flags.inside {
             match self.frustum(&s) {
                 None => {
-                    self.stats.culled += 1;
+                    count!(self.stats.culled += 1);
                     return;
                 }
                 Some(inside) => flags.inside = inside,
@@ -287,7 +288,7 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         if !flags.facing && node.cone < normal::CONE_NEVER {
             match self.backface(&s, node) {
                 Cone::Away => {
-                    self.stats.backfacing += 1;
+                    count!(self.stats.backfacing += 1);
                     return;
                 }
                 Cone::Facing => flags.facing = true,
@@ -303,7 +304,7 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
             _ => {
                 if w < near {
                     // A leaf whose centre is in front of the near plane.
-                    self.stats.culled += 1;
+                    count!(self.stats.culled += 1);
                     return;
                 }
                 self.draw(at, node, &s, level);
@@ -353,12 +354,12 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         let rc64 = i64::from(rc);
         let sh = shift - SUBPIXEL_BITS;
         let half = 1i64 << (sh - 1);
-        let x_q4 = ((i64::from(x) * rc64 + half) >> sh) as i32;
-        let y_q4 = ((i64::from(y) * rc64 + half) >> sh) as i32;
-        // size · W in Q4, then divided by W through the reciprocal.
+        let x_q8 = ((i64::from(x) * rc64 + half) >> sh) as i32;
+        let y_q8 = ((i64::from(y) * rc64 + half) >> sh) as i32;
+        // size · W in Q8, then divided by W through the reciprocal.
         let q = self.tf.size.apply(s.r.max(0) as u32);
         let extra = (64 - q.leading_zeros()).saturating_sub(32);
-        let size_q4 = if shift > extra {
+        let size_q8 = if shift > extra {
             (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
         } else {
             i32::MAX
@@ -369,17 +370,18 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
             .get(usize::from(node.normal))
             .copied()
             .unwrap_or(0);
-        self.stats.splats += 1;
-        self.stats.max_level = self.stats.max_level.max(level);
+        count!(self.stats.splats += 1);
+        count!(self.stats.max_level = self.stats.max_level.max(level));
         let sample = SampleSplat {
-            x_q4,
-            y_q4,
-            size_q4,
+            x_q8,
+            y_q8,
+            size_q8,
             depth,
             attr,
             level,
             index: self.tree.offset() + at,
             shadowed: false,
+            exact: false,
         };
         match node.color {
             Some(rgb) if self.colored => self.sink.splat_colored(&sample, rgb),
@@ -521,19 +523,19 @@ mod render_tests {
                 for s in &splats {
                     let (c, r) = exact[&s.index];
                     let p = cam.project(c).expect("drawn in front of the near plane");
-                    let err = (f64::from(s.x_q4) / 16.0 - p[0])
+                    let err = (f64::from(s.x_q8) / 256.0 - p[0])
                         .abs()
-                        .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+                        .max((f64::from(s.y_q8) / 256.0 - p[1]).abs());
                     worst = worst.max(err);
                     let size = 2.0 * r * cam.focal_px / p[2];
-                    let got = f64::from(s.size_q4) / 16.0;
+                    let got = f64::from(s.size_q8) / 256.0;
                     assert!(
                         (got - size).abs() <= 0.01 * size + 0.1,
                         "{name}: size {got} vs {size}"
                     );
                     if s.level > 0 && cutoff > 1.0 && splats.len() > 1 {
                         // Interior samples are drawn only at or below the cutoff.
-                        assert!(got <= f64::from(cutoff) * 1.01 + 0.1 || s.size_q4 > 0);
+                        assert!(got <= f64::from(cutoff) * 1.01 + 0.1 || s.size_q8 > 0);
                     }
                 }
                 assert!(worst < 0.5, "{name} cutoff {cutoff}: {worst} px");

@@ -22,10 +22,10 @@ const MAX_BACKOFF: u32 = 64;
 /// Priority of the root's own blocks: before anything else.
 const ROOT_PRIORITY: u32 = u32::MAX;
 
-/// Splat size class: ⌊log_√2 size⌋ of the diameter in Q4 pixels (Streaming QSplat §4.2 uses
+/// Splat size class: ⌊log_√2 size⌋ of the diameter in Q8 pixels (Streaming QSplat §4.2 uses
 /// k = √2: each class holds about twice the nodes of the one above).
-pub fn size_class(size_q4: i32) -> u32 {
-    let s = size_q4.max(1) as u32;
+pub fn size_class(size_q8: i32) -> u32 {
+    let s = size_q8.max(1) as u32;
     let l = 31 - s.leading_zeros();
     let half = u64::from(s) * u64::from(s) >= 1u64 << (2 * l + 1);
     2 * l + u32::from(half)
@@ -33,9 +33,9 @@ pub fn size_class(size_q4: i32) -> u32 {
 
 /// Streaming QSplat's priority (§4.2), larger first: the size class, then the screen row from the
 /// top, so that the model refines in top-to-bottom sweeps of decreasing splat size.
-pub fn stream_priority(size_q4: i32, y_q4: i32) -> u32 {
-    let row = (y_q4 >> 4).clamp(0, 0xFFFF) as u32;
-    size_class(size_q4) << 16 | (0xFFFF - row)
+pub fn stream_priority(size_q8: i32, y_q8: i32) -> u32 {
+    let row = (y_q8 >> crate::fixed::SUBPIXEL_BITS).clamp(0, 0xFFFF) as u32;
+    size_class(size_q8) << 16 | (0xFFFF - row)
 }
 
 /// Reads and checks the header block of a `.tg` file through `scratch` (at least one block; 64 KB
@@ -655,11 +655,11 @@ impl NodeData for StreamNodes<'_, '_> {
         index: u32,
         first_child: u32,
         n: u32,
-        size_q4: i32,
-        y_q4: i32,
+        size_q8: i32,
+        y_q8: i32,
     ) {
         let r = self.ranges(level + 1, first_child, n, Some(index));
-        self.request(&r, stream_priority(size_q4, y_q4));
+        self.request(&r, stream_priority(size_q8, y_q8));
     }
 }
 
@@ -682,9 +682,9 @@ mod tests {
 
     #[test]
     fn larger_splats_first_then_top_rows() {
-        let big_low = stream_priority(64 * 16, 300 * 16);
-        let big_high = stream_priority(64 * 16, 10 * 16);
-        let small_high = stream_priority(8 * 16, 0);
+        let big_low = stream_priority(64 * 256, 300 * 256);
+        let big_high = stream_priority(64 * 256, 10 * 256);
+        let small_high = stream_priority(8 * 256, 0);
         assert!(big_high > big_low && big_low > small_high);
         // Off-screen rows clamp instead of wrapping.
         assert_eq!(stream_priority(16, -5000), stream_priority(16, 0));

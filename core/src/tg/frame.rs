@@ -7,8 +7,29 @@
 //! - a child's centre is its parent's plus `disp[level][slot]` (3 adds, eq. 1–2);
 //! - a cell's extent along each frustum plane function is a per-level constant `ext[level]`, so
 //!   culling and the inside test are a few adds and compares (§5.2);
-//! - the LOD test "projected diameter ≤ cutoff" is `W − ext.w ≥ lod_w[level]` (eq. 3–4: no division);
+//! - the LOD test "projected size ≤ threshold" is `W − ext.w ≥ lod_w[level]` (eq. 3–4: no division);
 //! - only a drawn splat divides, through the reciprocal table.
+//!
+//! # The level of detail and the footprint
+//!
+//! A cell stops the descent (is drawn as one splat) where its projected bounding-sphere diameter
+//! `√3 · side · f / z` is at most the cutoff (QSplat §3.1, Duguet §5.2), **or** where its projected
+//! side is at most `min(cutoff, 1)` pixels. The second rule is what makes a 1 px frame cheap: a
+//! cell whose side projects to at most a pixel holds at most one pixel centre per axis, so its
+//! children could only move that pixel's colour and, at a silhouette, which side of the edge a
+//! pixel centre falls; descending one more level there costs ρ² ≈ 9 times the work for that. Below
+//! one pixel (`--cutoff 0.5`) the cutoff alone decides, so finer frames stay available. Against the
+//! bounding-sphere rule alone this never draws a coarser cell at any cutoff ≥ √3 and draws the
+//! same cells as before at coarse cutoffs.
+//!
+//! A drawn cell's splat is its *footprint*: a square of `FOOTPRINT` × the cell's projected side
+//! (a disc of the same area for round splats), centred on the centroid of the cell's children
+//! (the surface passes through them; a leaf is drawn at its centre), covering exactly the pixels
+//! whose centres it contains. No pixel is drawn for a footprint that contains no pixel centre: the
+//! cells of a surface tile its projection, so the pixel centres they miss are covered by their
+//! neighbours, and a splat grown to at least one pixel would grow every silhouette by half a pixel.
+//! `FOOTPRINT` is a little over 1 so that perspective and the centroids' shifts leave no pixel
+//! centre between neighbouring footprints.
 
 use super::read::Header;
 use super::MAX_LEVELS;
@@ -18,8 +39,29 @@ use crate::raster::Kernel;
 
 /// Child slots of the largest ρ the traversal draws (ρ = 3).
 pub const MAX_SLOTS: usize = 27;
+/// Entries of a per-slot displacement table: 32, so that a slot found by `trailing_zeros` of a
+/// 32-bit mask indexes it without a bounds check (entries 27..32 stay 0).
+pub const SLOT_TABLE: usize = 32;
+/// One level's displacement per child slot ([`SLOT_TABLE`] entries).
+pub type SlotTable = [[i32; 3]; SLOT_TABLE];
 /// Bound on `max(|X|, |Y|) + 320·|W|` over the root cube.
 const RANGE: f64 = (1u64 << 30) as f64;
+/// A square footprint's side over the cell's projected side (see the module docs).
+pub const FOOTPRINT: f64 = 1.1;
+/// A round footprint's diameter over the cell's projected side: the disc of a square footprint's
+/// area, `FOOTPRINT · 2/√π`.
+pub const FOOTPRINT_ROUND: f64 = 1.25;
+/// The largest error, in pixels, that linearising the perspective divide over a cell's children
+/// may add to their splats' positions ([`TgFrame::linear_w`]).
+pub const LINEAR_ERROR_PX: f64 = 1.0 / 32.0;
+/// The smallest `W` the linearised loop takes: its divisions are 32-bit from there on.
+const LINEAR_MIN_W: f64 = (1u32 << 18) as f64;
+/// Fraction bits of [`TgFrame::to_model`].
+pub(crate) const TO_MODEL_BITS: u32 = 16;
+/// Normal-cone classes a file can store (FORMAT.md): class `k` in 1..=6 bounds the angle between a
+/// cell's normal and every normal of its subtree by `CONE_ANGLES_DEG[k]`; 0 (no cone stored) and 7
+/// (a wider cone) never cull.
+pub const CONE_ANGLES_DEG: [f64; 8] = [90.0, 4.0, 8.0, 15.0, 25.0, 40.0, 60.0, 90.0];
 
 /// How to render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,12 +131,40 @@ pub struct TgFrame {
     /// Projected homogeneous centre of the root cell.
     pub(crate) root: [i32; 3],
     /// `disp[L][s]`: centre of child slot `s` at level `L` minus its parent's centre.
-    pub(crate) disp: [[[i32; 3]; MAX_SLOTS]; MAX_LEVELS],
+    pub(crate) disp: [SlotTable; MAX_LEVELS],
     pub(crate) ext: [Extents; MAX_LEVELS],
     /// Stop at level `L` when `W − ext[L].w ≥ lod_w[L]`.
     pub(crate) lod_w: [i32; MAX_LEVELS],
-    /// Splat diameter in Q4 pixels = `size_k[L].0 · 2^size_k[L].1 / W`.
+    /// Footprint side (or diameter) in Q8 pixels = `size_k[L].0 · 2^size_k[L].1 / W`.
     pub(crate) size_k: [(u32, u32); MAX_LEVELS],
+    /// Half a child step of a cell at level `L` in the units of [`TgFrame::to_model`]'s vectors
+    /// (the grid's axes are the model's, so this is one number per level).
+    pub(crate) half_step_model: [i32; MAX_LEVELS],
+    /// A child's slot offset per axis, `(i, j, k) − (ρ − 1)/2` in half child steps: `2i − (ρ − 1)`.
+    pub(crate) slot_steps: [[i8; 3]; SLOT_TABLE],
+    /// A child's slot offset per axis in Q6 ticks ([`TgFrame::tick`]): `ρ · (2i − (ρ − 1)) · 64`.
+    pub(crate) slot_ticks: [[i32; 3]; SLOT_TABLE],
+    /// `tick[L][a]`: half a child step along model axis `a` of a cell at level `L` in `(X, Y, W)`
+    /// (the centroid's unit: a child's slot is `2i − (ρ − 1)` of these from its parent's centre),
+    /// and the unit in which the linearised loop places a cell's children:
+    /// a child of a cell at level `L − 1` sits `ρ · (2i − (ρ − 1))` ticks of level `L` from its
+    /// parent's centre, and its splat at its own children's centroid, `σ / n` ticks further.
+    pub(crate) tick: [[[i32; 3]; 3]; MAX_LEVELS],
+    /// The children of a cell at level `L − 1` whose `W` is at least `linear_w[L]` are placed by
+    /// screen-space increments (the perspective divide linearised at their parent, [`LINEAR_ERROR_PX`]
+    /// at most); nearer ones are divided one by one.
+    pub(crate) linear_w: [i32; MAX_LEVELS],
+    /// `tick[L][a]`'s change of depth, Q8 depth units (the depth is linear in `W`).
+    pub(crate) tick_depth: [[i32; 3]; MAX_LEVELS],
+    /// `(X, Y, W)` to the model-frame vector from the eye, `v = to_model · c >> TO_MODEL_BITS`,
+    /// in the units of `W` (the exact backface test, `n · v > 0`, and the cone test).
+    pub(crate) to_model: [[i32; 3]; 3],
+    /// Whether stored normal cones may cull (off when the view is too wide to bound `|v|` by `W`).
+    pub(crate) cones: bool,
+    /// Cone test of class `k` at level `L`: cull when `a · v · 2¹⁴ > W · cone_k[k] + cone_r[k][L]`
+    /// (`a` the cell's Q14 normal).
+    pub(crate) cone_k: [i32; 8],
+    pub(crate) cone_r: [[i64; MAX_LEVELS]; 8],
     pub(crate) near_w: i32,
     /// Depth = `(W − depth_w0) · depth_scale >> 32`.
     pub(crate) depth_w0: i32,
@@ -103,6 +173,8 @@ pub struct TgFrame {
     w_per_unit: f64,
     /// Bit per normal code: backfacing for every ray of the view.
     pub(crate) backface: [u32; NORMAL_COUNT / 32],
+    /// Bit per normal code: front-facing for every ray of the view (neither bit: the exact test).
+    pub(crate) frontface: [u32; NORMAL_COUNT / 32],
     /// What `backface` was made from: the view direction in the model frame (Q14) and the
     /// threshold; `None` for the empty table (no culling). [`TgFrame::set`] keeps the table when
     /// they repeat.
@@ -163,7 +235,7 @@ pub(crate) fn slot_dots(
     rows: &[Vec3; 3],
     rho: usize,
     parent: f64,
-    out: &mut [[i32; 3]; MAX_SLOTS],
+    out: &mut SlotTable,
     round: impl Fn(usize, f64) -> i32,
 ) {
     // The offset of index i along an axis: the expression per slot and axis it replaces.
@@ -201,7 +273,7 @@ impl TgFrame {
         rho: 3,
         depth: 0,
         root: [0; 3],
-        disp: [[[0; 3]; MAX_SLOTS]; MAX_LEVELS],
+        disp: [[[0; 3]; SLOT_TABLE]; MAX_LEVELS],
         ext: [Extents {
             x: 0,
             y: 0,
@@ -211,11 +283,22 @@ impl TgFrame {
         }; MAX_LEVELS],
         lod_w: [i32::MAX; MAX_LEVELS],
         size_k: [(0, 0); MAX_LEVELS],
+        half_step_model: [0; MAX_LEVELS],
+        slot_steps: [[0; 3]; SLOT_TABLE],
+        slot_ticks: [[0; 3]; SLOT_TABLE],
+        tick: [[[0; 3]; 3]; MAX_LEVELS],
+        linear_w: [i32::MAX; MAX_LEVELS],
+        tick_depth: [[0; 3]; MAX_LEVELS],
+        to_model: [[0; 3]; 3],
+        cones: false,
+        cone_k: [0; 8],
+        cone_r: [[0; MAX_LEVELS]; 8],
         near_w: 1,
         depth_w0: 0,
         depth_scale: 0,
         w_per_unit: 0.0,
         backface: [0; NORMAL_COUNT / 32],
+        frontface: [0; NORMAL_COUNT / 32],
         backface_key: None,
         kernel: Kernel::Square,
     };
@@ -286,7 +369,7 @@ impl TgFrame {
 
         let rho = usize::from(header.rho);
         let disp = &mut self.disp;
-        *disp = [[[0i32; 3]; MAX_SLOTS]; MAX_LEVELS];
+        *disp = [[[0i32; 3]; SLOT_TABLE]; MAX_LEVELS];
         let mut ext = [Extents::default(); MAX_LEVELS];
         let mut lod_w = [i32::MAX; MAX_LEVELS];
         let mut size_k = [(0u32, 0u32); MAX_LEVELS];
@@ -315,17 +398,105 @@ impl TgFrame {
                 r: e(rr),
                 b: e(rb),
             };
-            // Projected diameter of the cell's bounding sphere: √3·side·f / z (pixels).
-            let k = libm::sqrt(3.0) * cell * (world_side / side) * f * scale;
-            lod_w[level] = to_i32((k / cutoff).max(f64::from(near_w)));
-            let k_q4 = k * 16.0;
+            // Projected side of the cell: side·f / z (pixels). It stops where its bounding sphere's
+            // diameter (√3 × that) is at most the cutoff, or the side at most min(cutoff, 1 px)
+            // (module docs).
+            let k = cell * (world_side / side) * f * scale;
+            let stop_side_px = (cutoff / libm::sqrt(3.0)).max(cutoff.min(1.0));
+            lod_w[level] = to_i32((k / stop_side_px).max(f64::from(near_w)));
+            let footprint = match opts.kernel {
+                Kernel::Square => FOOTPRINT,
+                Kernel::Round => FOOTPRINT_ROUND,
+            };
+            let k_q8 = k * footprint * f64::from(crate::fixed::ONE_PX_Q8);
             let mut shift = 0u32;
-            let mut kk = k_q4;
+            let mut kk = k_q8;
             while kk >= 2_147_483_648.0 {
                 kk *= 0.5;
                 shift += 1;
             }
             size_k[level] = (libm::round(kk) as u32, shift);
+        }
+
+        // Ticks, and where the linearised placement of a level's cells is precise enough: a child
+        // and its splat lie within ρ·(ρ − 1) + (ρ − 1) = ρ² − 1 ticks of its parent's centre per
+        // axis (8·√3 ticks, 2.3 of its sides, for ρ = 3). Linearising x = X / W at the parent errs by
+        // |J·d| · (dW / W) / (1 + dW / W) with |J·d| ≤ that distance in pixels and
+        // dW / W ≤ distance / z = (distance in pixels) / f, so the error is at most
+        // p² / f / (1 − p / f) for p = 2.3 · side · f / z: below LINEAR_ERROR_PX where
+        // z ≥ 2.3·side·f / sqrt(LINEAR_ERROR_PX·f) (with 10 % to spare for 1 − p/f and rounding).
+        let mut tick = [[[0i32; 3]; 3]; MAX_LEVELS];
+        let mut half_step_model = [0i32; MAX_LEVELS];
+        let mut linear_w = [i32::MAX; MAX_LEVELS];
+        let reach = (rho * rho - 1) as f64 * libm::sqrt(3.0) / (2.0 * rho as f64);
+        let mut cell_l = side;
+        for l in 0..=usize::from(header.depth) {
+            if l > 0 {
+                cell_l /= rho as f64;
+            }
+            let t = 0.5 * cell_l / rho as f64;
+            for (axis, tk) in tick[l].iter_mut().enumerate() {
+                *tk = core::array::from_fn(|k| to_i32(t * a[k][axis] * scale));
+            }
+            half_step_model[l] = to_i32(t * placement.scale * scale);
+            if l > 0 {
+                // Also a cell of at most 8 px, so that the loop's sums fit an `i32`.
+                let k_side = cell_l * placement.scale * f * scale;
+                let w = (1.1 * reach * k_side / libm::sqrt(LINEAR_ERROR_PX * f))
+                    .max(k_side / 8.0)
+                    .max(LINEAR_MIN_W);
+                linear_w[l] = to_i32(w.max(f64::from(near_w)));
+            }
+        }
+        let mut slot_steps = [[0i8; 3]; SLOT_TABLE];
+        for (s, st) in slot_steps.iter_mut().enumerate().take(rho * rho * rho) {
+            let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
+            *st = ijk.map(|i| (2 * i) as i8 - (rho as i8 - 1));
+        }
+        // The inverse of the projection's linear part, over the placement's scale: (X, Y, W) is
+        // K·R·(s·(p − eye)) with K the pinhole [[f, 0, cx], [0, −f, cy], [0, 0, 1]] and R the
+        // camera's rows in the model frame, so s·(p − eye) = x·right + y·up + W·forward with
+        // x = (X − cx·W)/f and y = (cy·W − Y)/f. Its columns, in the model frame:
+        let (right_m, up_m, fwd_m) = (
+            placement.to_model_dir(camera.right),
+            placement.to_model_dir(camera.up),
+            placement.to_model_dir(camera.forward),
+        );
+        let one = f64::from(1u32 << TO_MODEL_BITS);
+        let to_model: [[i32; 3]; 3] = core::array::from_fn(|k| {
+            [
+                to_i32(right_m[k] / f * one),
+                to_i32(-up_m[k] / f * one),
+                to_i32((fwd_m[k] - cx / f * right_m[k] + cy / f * up_m[k]) * one),
+            ]
+        });
+        // Normal cones (a subtree faces away from every ray when its normals, within θ of the
+        // cell's normal a, face away from the eye at every point of the cell): with v the vector
+        // from the eye to the cell's centre and r the cell's bounding radius, every n·(q − eye) is
+        // at least (a·v)·cos θ − |v|·sin θ − r. For a cell inside the frustum |v| ≤ W / cos θ_max
+        // (θ_max: the image corner's angle from the axis), so the subtree is culled when
+        // a·v > W·tan θ / cos θ_max + r / cos θ. In W units, Q14.
+        let theta_max = libm::atan(libm::sqrt(cx * cx + cy * cy) / f) + 2f64.to_radians();
+        let mut cone_k = [0i32; 8];
+        let mut cone_r = [[0i64; MAX_LEVELS]; 8];
+        let cones = theta_max < 80f64.to_radians();
+        if cones {
+            let k_fov = 1.0 / libm::cos(theta_max);
+            for class in 1..7 {
+                let t = CONE_ANGLES_DEG[class].to_radians();
+                // A margin for the normals' Q14 rounding and the integer v: 0.5°.
+                let t = t + 0.5f64.to_radians();
+                cone_k[class] = to_i32(k_fov * libm::tan(t) * 16384.0);
+                let mut cell = side;
+                for level in 0..=usize::from(header.depth) {
+                    if level > 0 {
+                        cell /= rho as f64;
+                    }
+                    // Bounding radius of the cell in W units, plus the rounding of c.
+                    let r = 0.5 * libm::sqrt(3.0) * cell * placement.scale * scale + 4.0;
+                    cone_r[class][level] = (r / libm::cos(t) * 16384.0) as i64;
+                }
+            }
         }
 
         // Depth: linear in W from the nearest to the farthest point of the root cube (a scene shares
@@ -349,14 +520,21 @@ impl TgFrame {
             }
         }
         // The table depends on the key alone: rebuilt only when it changes.
+        // Front-facing for every ray: n·forward < −sin(θmax), the mirror image. Codes in neither
+        // table get the exact test per splat (`n · v > 0`).
         if key != self.backface_key {
             self.backface = [0u32; NORMAL_COUNT / 32];
+            // Without culling every code is "front": no splat is tested.
+            self.frontface = [u32::MAX; NORMAL_COUNT / 32];
             if let Some((fq, threshold)) = key {
+                self.frontface = [0u32; NORMAL_COUNT / 32];
                 for (code, n) in NORMALS_Q14.iter().enumerate() {
                     let d =
                         i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
                     if d > threshold {
                         self.backface[code / 32] |= 1 << (code % 32);
+                    } else if d < -threshold {
+                        self.frontface[code / 32] |= 1 << (code % 32);
                     }
                 }
             }
@@ -368,9 +546,19 @@ impl TgFrame {
         self.ext = ext;
         self.lod_w = lod_w;
         self.size_k = size_k;
+        self.half_step_model = half_step_model;
+        self.slot_steps = slot_steps;
+        self.slot_ticks = slot_steps.map(|st| st.map(|v| i32::from(v) * rho as i32 * 64));
+        self.tick = tick;
+        self.linear_w = linear_w;
+        self.to_model = to_model;
+        self.cones = cones && opts.backface_culling;
+        self.cone_k = cone_k;
+        self.cone_r = cone_r;
         self.near_w = near_w;
         self.depth_w0 = depth_w0;
         self.depth_scale = depth_scale;
+        self.set_tick_depth();
         self.w_per_unit = scale;
         self.kernel = opts.kernel;
         Ok(())
@@ -391,6 +579,19 @@ impl TgFrame {
             range.far * self.w_per_unit,
             self.near_w,
         );
+        self.set_tick_depth();
+    }
+
+    /// [`TgFrame::tick_depth`] from the ticks and the depth map (integer arithmetic).
+    fn set_tick_depth(&mut self) {
+        let scale = self.depth_scale;
+        for (d, t) in self.tick_depth.iter_mut().zip(&self.tick) {
+            *d = core::array::from_fn(|a| {
+                let w = i128::from(t[a][2]);
+                ((w * i128::from(scale)) >> 24).clamp(i128::from(i32::MIN), i128::from(i32::MAX))
+                    as i32
+            });
+        }
     }
 }
 
@@ -530,7 +731,7 @@ mod tests {
             let parent = next().abs() * 7.0 + 1e-3;
             let scale = next().abs() * 100.0;
             for rho in [2, 3] {
-                let mut fast = [[0i32; 3]; MAX_SLOTS];
+                let mut fast = [[0i32; 3]; SLOT_TABLE];
                 // The low bits of the dot product itself: any difference in rounding shows.
                 slot_dots(&rows, rho, parent, &mut fast, |k, x| {
                     (x * scale + k as f64).to_bits() as i32

@@ -18,8 +18,9 @@ pub use traverse::{
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"PSTG";
-/// Current format version.
-pub const VERSION: u16 = 1;
+/// Current format version (2: normal cones, [`FLAG_CONES`]). Version 1 files, which have no cones,
+/// are read too.
+pub const VERSION: u16 = 2;
 /// Deepest supported grid (levels 0..=MAX_DEPTH).
 pub const MAX_DEPTH: u8 = 10;
 /// Number of level directory entries a reader keeps.
@@ -30,6 +31,11 @@ pub const MAX_CELLS_PER_AXIS: u32 = 1 << 24;
 pub const BLOCK_LOG2_RANGE: core::ops::RangeInclusive<u8> = 9..=16;
 /// Header flag: an RGB565 colour array is present.
 pub const FLAG_COLOR: u16 = 1;
+/// Header flag (version 2, ρ = 3 only): bits 27..30 of each child mask hold the cell's normal-cone
+/// class ([`frame::CONE_ANGLES_DEG`]).
+pub const FLAG_CONES: u16 = 2;
+/// First bit of the normal-cone class in a ρ = 3 child mask.
+pub const CONE_SHIFT: u32 = 27;
 /// Byte offset of the level directory in block 0.
 pub const DIRECTORY_OFFSET: usize = 72;
 /// Byte offset of the bounding box in block 0.

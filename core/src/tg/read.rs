@@ -3,7 +3,7 @@
 
 use super::{
     mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
-    FLAG_COLOR, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, VERSION,
+    CONE_SHIFT, FLAG_COLOR, FLAG_CONES, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, VERSION,
 };
 use crate::crc::crc32;
 
@@ -219,6 +219,10 @@ impl Header {
     pub fn has_color(&self) -> bool {
         self.flags & FLAG_COLOR != 0
     }
+    /// Whether child masks carry normal-cone classes.
+    pub fn has_cones(&self) -> bool {
+        self.flags & FLAG_CONES != 0
+    }
     /// Number of levels (depth + 1).
     pub fn levels(&self) -> usize {
         usize::from(self.depth) + 1
@@ -317,7 +321,7 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         return Err(TgError::BadMagic(magic));
     }
     let version = u16_at(block0, 4).ok_or(short)?;
-    if version != VERSION {
+    if !(1..=VERSION).contains(&version) {
         return Err(TgError::UnsupportedVersion(version));
     }
     let block_log2 = u8_at(block0, 12).ok_or(short)?;
@@ -331,12 +335,21 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         return Err(TgError::BlockCrc(0));
     }
     let flags = u16_at(block, 6).ok_or(short)?;
-    if flags & !FLAG_COLOR != 0 {
+    let known = if version >= 2 {
+        FLAG_COLOR | FLAG_CONES
+    } else {
+        FLAG_COLOR
+    };
+    if flags & !known != 0 {
         return Err(TgError::UnsupportedFlags(flags));
     }
     let rho = u8_at(block, 8).ok_or(short)?;
     if !(2..=5).contains(&rho) {
         return Err(TgError::UnsupportedRho(rho));
+    }
+    if flags & FLAG_CONES != 0 && rho != 3 {
+        // Only ρ = 3 masks have spare bits for the cone.
+        return Err(TgError::UnsupportedFlags(flags));
     }
     let depth = u8_at(block, 9).ok_or(short)?;
     if depth > MAX_DEPTH
@@ -554,12 +567,15 @@ impl<'a> TriGrid<'a> {
     fn check_structure(&self) -> Result<(), TgError> {
         let h = self.header;
         let cells = u32::from(h.rho).pow(3);
+        // The bits above the slots: 0, but for the cone class where the file has cones.
+        let spare_free = if h.has_cones() { CONE_SHIFT + 3 } else { cells };
         for l in 0..h.depth {
             let (level, dir) = (l, self.levels[usize::from(l)]);
             let mut children = 0u32;
             for i in 0..dir.count {
+                let word = self.mask_word(l, i);
                 let m = self.mask(l, i);
-                if m == 0 || (cells < 128 && m >> cells != 0) {
+                if m == 0 || (spare_free < 128 && word >> spare_free != 0) {
                     return Err(TgError::BadMask { level, index: i });
                 }
                 children = children.saturating_add(m.count_ones());
@@ -647,6 +663,29 @@ impl<'a> TriGrid<'a> {
     /// Child mask of cell `i` at `level` (bit `s` = slot `s` non-empty); 0 at the leaf level.
     #[inline]
     pub fn mask(&self, level: u8, i: u32) -> u128 {
+        let cells = u32::from(self.header.rho).pow(3);
+        let word = self.mask_word(level, i);
+        if cells < 128 {
+            word & ((1u128 << cells) - 1)
+        } else {
+            word
+        }
+    }
+
+    /// Normal-cone class of cell `i` at `level` (FORMAT.md; 0 when the file has no cones or at the
+    /// leaf level).
+    #[inline]
+    pub fn cone(&self, level: u8, i: u32) -> u8 {
+        if !self.header.has_cones() {
+            return 0;
+        }
+        (self.mask_word(level, i) >> CONE_SHIFT & 7) as u8
+    }
+
+    /// The stored mask bytes of cell `i` at `level`, the child bits and what the bits above them
+    /// hold.
+    #[inline]
+    fn mask_word(&self, level: u8, i: u32) -> u128 {
         let dir = self.level(level);
         if dir.mask_off == 0 {
             return 0;
@@ -661,7 +700,8 @@ impl<'a> TriGrid<'a> {
         u128::from_le_bytes(word)
     }
 
-    /// Child mask for ρ ≤ 3, as a `u32` (the traversal's fast path).
+    /// The stored child-mask word for ρ ≤ 3, as a `u32` (the traversal's fast path): the child
+    /// bits and, for ρ = 3, the cone class above them.
     #[inline]
     pub fn mask32(&self, level: u8, i: u32) -> u32 {
         let dir = self.level(level);

@@ -7,10 +7,12 @@
 //! samples are drawn.
 #![deny(clippy::float_arithmetic)]
 
-use super::frame::{TgFrame, MAX_SLOTS};
+use super::frame::{TgFrame, MAX_SLOTS, TO_MODEL_BITS};
 use super::read::{LevelArrays, TriGrid};
 use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
+use crate::raster::covers_pixel_centre;
+use crate::normal::NORMALS_Q14;
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
 /// What a shadow algorithm adds to the walk. Implemented by [`NoShadows`] and, with the `shadows`
@@ -83,8 +85,14 @@ pub trait NodeData {
     fn shape(&self) -> (u8, u8);
     /// Attribute of sample `i` at `level` (0 when it cannot be read).
     fn attr(&self, level: u8, i: u32) -> u16;
-    /// Child mask of cell `i` at `level`, for ρ ≤ 3 (0 when it cannot be read).
+    /// Child mask word of cell `i` at `level`, for ρ ≤ 3 (0 when it cannot be read): the child
+    /// bits below ρ³ and, for ρ = 3, the normal-cone class in bits 27..30 (FORMAT.md).
     fn mask(&self, level: u8, i: u32) -> u32;
+    /// [`NodeData::mask`] for a walk that knows ρ at compile time.
+    #[inline(always)]
+    fn mask_of<const RHO: u8>(&self, level: u8, i: u32) -> u32 {
+        self.mask(level, i)
+    }
     /// Group pointer of cell `i` at `level` (0 when it cannot be read).
     fn group(&self, level: u8, i: u32) -> u32;
     /// Whether everything the descent into the `n` children of cell `index` at `level` reads is
@@ -92,22 +100,26 @@ pub trait NodeData {
     /// group pointer. A streamed source also notes the blocks as used by this frame.
     fn children_resident(&mut self, level: u8, index: u32, first_child: u32, n: u32) -> bool;
     /// Asks for the blocks [`NodeData::children_resident`] found missing; the cell's projected
-    /// diameter (Q4 pixels) and centre row (Q4 pixels) set the priority (Streaming QSplat §4.2).
+    /// diameter (Q8 pixels) and centre row (Q8 pixels) set the priority (Streaming QSplat §4.2).
     fn request_children(
         &mut self,
         level: u8,
         index: u32,
         first_child: u32,
         n: u32,
-        size_q4: i32,
-        y_q4: i32,
+        size_q8: i32,
+        y_q8: i32,
     );
 }
 
 /// A memory-resident grid: every block is present, reads are slices cut once per level.
+///
+/// Its reads are not bounds-checked: [`TriGrid::open`] proved every index the walk can compute
+/// (see [`unchecked`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Resident<'g> {
-    arrays: [LevelArrays<'g>; MAX_LEVELS],
+    /// Indexed by `level & 15`: in range without a check.
+    arrays: [LevelArrays<'g>; 16],
     rho: u8,
     depth: u8,
 }
@@ -116,7 +128,7 @@ impl<'g> Resident<'g> {
     /// The arrays of `grid`, cut once.
     pub fn new(grid: &TriGrid<'g>) -> Self {
         let h = grid.header();
-        let mut arrays = [LevelArrays::default(); MAX_LEVELS];
+        let mut arrays = [LevelArrays::default(); 16];
         for (l, a) in arrays.iter_mut().enumerate().take(h.levels()) {
             *a = grid.arrays(l as u8);
         }
@@ -125,6 +137,60 @@ impl<'g> Resident<'g> {
             rho: h.rho,
             depth: h.depth,
         }
+    }
+
+    #[inline(always)]
+    fn level(&self, level: u8) -> &LevelArrays<'g> {
+        &self.arrays[usize::from(level & 15)]
+    }
+}
+
+/// The walk's reads of a validated grid, without bounds checks (the "validation once").
+///
+/// Every index the walk passes here was proven in range by [`TriGrid::open`]'s structure check
+/// (FORMAT.md "Validation"): a level's count is the number of child bits at the level above, every
+/// group entry is the running count it stands for, and mask bits at or above ρ³ are clear (the
+/// walk masks the cone bits off before counting). The walk derives a child's index from its
+/// parent's group entry plus the child bits of its elder siblings, exactly as the check recomputes
+/// them, so `i < count` at `level` for every read, and each array holds `count` elements.
+/// `debug_assert!`s check it in tests.
+#[allow(unsafe_code)]
+mod unchecked {
+    use super::LevelArrays;
+
+    /// Attribute `i`: `2i + 2 ≤ attrs.len()`.
+    #[inline(always)]
+    pub(super) fn attr(a: &LevelArrays<'_>, i: u32) -> u16 {
+        let at = 2 * i as usize;
+        debug_assert!(at + 2 <= a.attrs.len());
+        // SAFETY: the walk reads only validated indices (module docs), so `at + 2 ≤ len`.
+        u16::from_le(unsafe { a.attrs.as_ptr().add(at).cast::<u16>().read_unaligned() })
+    }
+
+    /// ρ = 3 mask word `i`: `4i + 4 ≤ masks.len()`.
+    #[inline(always)]
+    pub(super) fn mask_u32(a: &LevelArrays<'_>, i: u32) -> u32 {
+        let at = 4 * i as usize;
+        debug_assert!(at + 4 <= a.masks.len());
+        // SAFETY: as for `attr`.
+        u32::from_le(unsafe { a.masks.as_ptr().add(at).cast::<u32>().read_unaligned() })
+    }
+
+    /// ρ = 2 mask `i`: `i < masks.len()`.
+    #[inline(always)]
+    pub(super) fn mask_u8(a: &LevelArrays<'_>, i: u32) -> u32 {
+        debug_assert!((i as usize) < a.masks.len());
+        // SAFETY: as for `attr`.
+        u32::from(unsafe { *a.masks.get_unchecked(i as usize) })
+    }
+
+    /// Group entry `i`: `4i + 4 ≤ groups.len()`.
+    #[inline(always)]
+    pub(super) fn group(a: &LevelArrays<'_>, i: u32) -> u32 {
+        let at = 4 * i as usize;
+        debug_assert!(at + 4 <= a.groups.len());
+        // SAFETY: as for `attr`.
+        u32::from_le(unsafe { a.groups.as_ptr().add(at).cast::<u32>().read_unaligned() })
     }
 }
 
@@ -136,20 +202,29 @@ impl NodeData for Resident<'_> {
     }
     #[inline(always)]
     fn attr(&self, level: u8, i: u32) -> u16 {
-        self.arrays[usize::from(level)].attr(i)
+        unchecked::attr(self.level(level), i)
     }
     #[inline(always)]
     fn mask(&self, level: u8, i: u32) -> u32 {
-        let a = &self.arrays[usize::from(level)];
+        let a = self.level(level);
         if self.rho == 2 {
-            a.mask_u8(i)
+            unchecked::mask_u8(a, i)
         } else {
-            a.mask_u32(i)
+            unchecked::mask_u32(a, i)
+        }
+    }
+    #[inline(always)]
+    fn mask_of<const RHO: u8>(&self, level: u8, i: u32) -> u32 {
+        let a = self.level(level);
+        if RHO == 2 {
+            unchecked::mask_u8(a, i)
+        } else {
+            unchecked::mask_u32(a, i)
         }
     }
     #[inline(always)]
     fn group(&self, level: u8, i: u32) -> u32 {
-        self.arrays[usize::from(level)].group(i)
+        unchecked::group(self.level(level), i)
     }
     #[inline(always)]
     fn children_resident(&mut self, _: u8, _: u32, _: u32, _: u32) -> bool {
@@ -231,6 +306,65 @@ const IDENTITY_ORDER: SlotOrder = {
     SlotOrder::new(o)
 };
 
+/// The children's centroid tables: for a 9-bit layer `m` of a ρ = 3 mask (the 9 slots of one `k`),
+/// `count | (Σ(2i − 2) + 32) << 8 | (Σ(2j − 2) + 32) << 16` over its set bits, so that the three
+/// layers' entries add up without carries (counts ≤ 27, biased sums ≤ 96 + 18).
+static CENTROID3: [u32; 512] = {
+    let mut t = [0u32; 512];
+    let mut m = 0;
+    while m < 512 {
+        let (mut n, mut sx, mut sy) = (0u32, 32u32, 32u32);
+        let mut b = 0;
+        while b < 9 {
+            if m >> b & 1 != 0 {
+                n += 1;
+                sx = sx + 2 * (b % 3) as u32 - 2;
+                sy = sy + 2 * (b / 3) as u32 - 2;
+            }
+            b += 1;
+        }
+        t[m] = n | sx << 8 | sy << 16;
+        m += 1;
+    }
+    t
+};
+
+/// The same for a whole ρ = 2 mask: `count | (Σ(2i − 1) + 32) << 8 | … << 16 | … << 24`.
+static CENTROID2: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut n, mut s) = (0u32, [32u32; 3]);
+        let mut b = 0;
+        while b < 8 {
+            if m >> b & 1 != 0 {
+                n += 1;
+                let mut a = 0;
+                while a < 3 {
+                    s[a] = s[a] + 2 * ((b >> a) & 1) as u32 - 1;
+                    a += 1;
+                }
+            }
+            b += 1;
+        }
+        t[m] = n | s[0] << 8 | s[1] << 16 | s[2] << 24;
+        m += 1;
+    }
+    t
+};
+
+/// `RECIP_COUNT[n] = round(2¹⁵ / n)`: the centroid's division by the number of children (≤ 27;
+/// 32 entries so that an index masked to 5 bits needs no bounds check).
+static RECIP_COUNT: [i32; 32] = {
+    let mut t = [0i32; 32];
+    let mut n = 1;
+    while n < 28 {
+        t[n] = ((1 << 15) + n as i32 / 2) / n as i32;
+        n += 1;
+    }
+    t
+};
+
 /// Draws one frame of `grid` set up by `frame` into `sink`, and returns what it did.
 ///
 /// The descent stops where a cell's projected diameter is below the cutoff (multi-level rendering,
@@ -261,14 +395,10 @@ pub fn render_nodes<D: NodeData, S: SplatSink, H: ShadowHooks>(
     hooks: &mut H,
     sink: &mut S,
 ) -> Stats {
-    match Walker::new(data, frame, hooks, sink) {
-        Some(mut w) => {
-            let mask = w.mask(0, 0);
-            let root = w.hooks.root();
-            w.node(0, 0, mask, 0, frame.root, root, false);
-            w.stats
-        }
-        None => Stats::default(),
+    // One walk per ρ it draws, so that every ρ-dependent branch is decided at compile time.
+    match frame.rho {
+        2 => Walker::<_, _, _, 2>::new(data, frame, hooks, sink).map_or_else(Stats::default, |w| w.walk()),
+        _ => Walker::<_, _, _, 3>::new(data, frame, hooks, sink).map_or_else(Stats::default, |w| w.walk()),
     }
 }
 
@@ -276,18 +406,14 @@ pub fn render_nodes<D: NodeData, S: SplatSink, H: ShadowHooks>(
 /// [`ShadowHooks::light_stop`] says; returns the nodes visited.
 pub fn fill_tg<H: ShadowHooks>(grid: &TriGrid<'_>, frame: &TgFrame, hooks: &mut H) -> u32 {
     let mut sink = crate::splat::NullSink::default();
-    match Walker::new(Resident::new(grid), frame, hooks, &mut sink) {
-        Some(mut w) => {
-            let mask = w.mask(0, 0);
-            let root = w.hooks.root();
-            w.cast_only(0, 0, mask, 0, root);
-            w.stats.nodes_visited
-        }
-        None => 0,
+    let data = Resident::new(grid);
+    match frame.rho {
+        2 => Walker::<_, _, _, 2>::new(data, frame, hooks, &mut sink).map_or(0, |w| w.fill()),
+        _ => Walker::<_, _, _, 3>::new(data, frame, hooks, &mut sink).map_or(0, |w| w.fill()),
     }
 }
 
-struct Walker<'f, 'h, 's, D, S, H> {
+struct Walker<'f, 'h, 's, D, S, H, const RHO: u8> {
     data: D,
     frame: &'f TgFrame,
     hooks: &'h mut H,
@@ -299,7 +425,15 @@ struct Walker<'f, 'h, 's, D, S, H> {
     kids: [[Child; MAX_SLOTS]; MAX_LEVELS],
 }
 
-/// A child about to be visited: its slot, index, first child, mask.
+/// Which way every sample of a subtree faces the eye, by its normal cone.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Facing {
+    Away,
+    Towards,
+    Either,
+}
+
+/// A child about to be visited: its index, first child, mask word.
 #[derive(Clone, Copy, Default)]
 struct Child {
     index: u32,
@@ -307,9 +441,42 @@ struct Child {
     mask: u32,
 }
 
-impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D, S, H> {
+/// The per-frame tables of one level that drawing a cell there reads.
+struct DrawLevel<'f> {
+    /// [`TgFrame::size_k`].
+    size_k: (u32, u32),
+    /// [`TgFrame::tick`].
+    tick: &'f [[i32; 3]; 3],
+    /// [`TgFrame::half_step_model`].
+    half_step_model: i32,
+}
+
+impl<'f> DrawLevel<'f> {
+    #[inline(always)]
+    fn of(f: &'f TgFrame, level: u8) -> Self {
+        let l = usize::from(level);
+        DrawLevel {
+            size_k: f.size_k[l],
+            tick: &f.tick[l],
+            half_step_model: f.half_step_model[l],
+        }
+    }
+}
+
+/// Bit `code` of a per-normal-code bit table.
+#[inline(always)]
+fn bit(table: &[u32; 256], code: usize) -> bool {
+    table[code / 32] >> (code % 32) & 1 != 0
+}
+
+impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
+    Walker<'f, 'h, 's, D, S, H, RHO>
+{
+    /// The child bits of a mask word: the ρ³ slots (the bits above hold the cone class).
+    const SLOT_BITS: u32 = (1u32 << (RHO as u32 * RHO as u32 * RHO as u32)) - 1;
+
     fn new(data: D, frame: &'f TgFrame, hooks: &'h mut H, sink: &'s mut S) -> Option<Self> {
-        if data.shape() != (frame.rho, frame.depth) {
+        if data.shape() != (RHO, frame.depth) || frame.rho != RHO {
             return None;
         }
         Some(Walker {
@@ -322,9 +489,34 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         })
     }
 
+    /// The frame's view walk from the root.
+    fn walk(mut self) -> Stats {
+        let mask = self.root_mask();
+        let root = self.hooks.root();
+        self.node(0, 0, mask, 0, self.frame.root, root, false);
+        self.stats
+    }
+
+    /// The light-only walk from the root (two-pass shadows' first pass); the nodes it visited.
+    fn fill(mut self) -> u32 {
+        let mask = self.root_mask();
+        let root = self.hooks.root();
+        self.cast_only(0, 0, mask, 0, root);
+        self.stats.nodes_visited
+    }
+
+    /// The root's mask word (none when the root is a leaf).
+    fn root_mask(&self) -> u32 {
+        if self.frame.depth > 0 {
+            self.mask(0, 0)
+        } else {
+            0
+        }
+    }
+
     #[inline(always)]
     fn mask(&self, level: u8, i: u32) -> u32 {
-        self.data.mask(level, i)
+        self.data.mask_of::<RHO>(level, i)
     }
 
     /// The children of a cell at `level` into `kids[level]` by slot, for a walk in light order.
@@ -343,9 +535,26 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         );
     }
 
-    /// Visits cell `index` at `level` with child mask `mask`, whose children start at `first_child`
-    /// on the next level, with projected centre `c` and light-space position `p`; `inside` when an
-    /// ancestor was entirely inside the frustum (QSplat's flag: no more tests below it).
+    /// Whether `c` (a cell at level `l`, extents `e`) lies outside the frustum or behind the near
+    /// plane, and whether it lies entirely inside.
+    #[inline(always)]
+    fn frustum(&self, l: usize, c: [i32; 3]) -> (bool, bool) {
+        let f = self.frame;
+        let e = &f.ext[l];
+        let [x, y, w] = c;
+        let r = 240 * w - x;
+        let b = 320 * w - y;
+        let outside =
+            w + e.w < f.near_w || x + e.x < 0 || r + e.r < 0 || y + e.y < 0 || b + e.b < 0;
+        let inside =
+            x - e.x >= 0 && r - e.r >= 0 && y - e.y >= 0 && b - e.b >= 0 && w - e.w >= f.near_w;
+        (outside, inside)
+    }
+
+    /// Visits cell `index` at `level` with child mask word `mask`, whose children start at
+    /// `first_child` on the next level, with projected centre `c` and light-space position `p`;
+    /// `inside` when an ancestor was entirely inside the frustum (QSplat's flag: no more tests
+    /// below it).
     #[allow(clippy::too_many_arguments)]
     fn node(
         &mut self,
@@ -357,69 +566,358 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         p: H::Pos,
         inside: bool,
     ) {
-        self.stats.nodes_visited += 1;
+        count!(self.stats.nodes_visited += 1);
         let f = self.frame;
         let l = usize::from(level);
-        let e = &f.ext[l];
-        let [x, y, w] = c;
         let mut inside = inside;
         if !inside {
-            let r = 240 * w - x;
-            let b = 320 * w - y;
-            if w + e.w < f.near_w || x + e.x < 0 || r + e.r < 0 || y + e.y < 0 || b + e.b < 0 {
-                self.stats.culled += 1;
+            let (outside, all_in) = self.frustum(l, c);
+            if outside {
+                count!(self.stats.culled += 1);
                 if H::FILL_CULLED {
                     // Outside the view, but it may cast shadows into it.
-                    self.stats.nodes_visited -= 1;
+                    count!(self.stats.nodes_visited -= 1);
                     self.cast_only(level, index, mask, first_child, p);
                 }
                 return;
             }
-            inside =
-                x - e.x >= 0 && r - e.r >= 0 && y - e.y >= 0 && b - e.b >= 0 && w - e.w >= f.near_w;
+            inside = all_in;
         }
-        if level == f.depth || w - e.w >= f.lod_w[l] {
-            self.draw(level, index, c, p);
+        let w_near = c[2] - f.ext[l].w;
+        if level == f.depth || w_near >= f.lod_w[l] {
+            self.draw(level, index, mask, c, p, inside);
+            return;
+        }
+        // Normal cones (QSplat §3.2): a subtree whose every normal faces away from the eye.
+        if inside && f.cones && self.cone_backfacing(level, index, mask, c) {
+            count!(self.stats.backfacing += 1);
+            if H::FILL_CULLED {
+                count!(self.stats.nodes_visited -= 1);
+                self.cast_only(level, index, mask, first_child, p);
+            }
             return;
         }
         if D::STREAMED {
             // Streaming QSplat §3.2: children not here yet, so draw this cell and ask for them.
-            let n = mask.count_ones();
+            let n = (mask & Self::SLOT_BITS).count_ones();
             if !self.data.children_resident(level, index, first_child, n) {
-                let (_, y_q4, size_q4) = self.project(l, c);
+                let (_, y_q8, size_q8) = self.project(&DrawLevel::of(f, level), c);
                 self.data
-                    .request_children(level, index, first_child, n, size_q4, y_q4);
-                self.draw(level, index, c, p);
+                    .request_children(level, index, first_child, n, size_q8, y_q8);
+                self.draw(level, index, mask, c, p, inside);
                 return;
             }
         }
         let next = level + 1;
-        let disp = &f.disp[usize::from(next)];
         let ordered = self.hooks.ordered(l);
-        self.each_child(
-            level,
-            index,
-            mask,
-            first_child,
-            ordered,
-            move |walker, s, k| {
-                let d = disp[s];
-                let cp = walker.hooks.child(p, usize::from(next), s);
-                walker.node(
-                    next,
-                    k.index,
-                    k.mask,
-                    k.grand,
-                    [x + d[0], y + d[1], w + d[2]],
-                    cp,
-                    inside,
-                );
-            },
-        );
+        // Every child stops when even this cell's nearest point is far enough for the children's
+        // level, or they are leaves: draw them in one flat loop, without recursion or the running
+        // group pointer (which only a descent needs). The one-pass shadows' ordered levels and a
+        // streamed grid take the general path.
+        if !ordered && !D::STREAMED && (next == f.depth || w_near >= f.lod_w[usize::from(next)]) {
+            if inside && c[2] >= f.linear_w[usize::from(next)] {
+                self.draw_children_linear::<false>(level, mask, first_child, c, p);
+            } else {
+                self.draw_children(level, index, mask, first_child, c, p, inside);
+            }
+        } else if inside
+            && !ordered
+            && !D::STREAMED
+            && next < f.depth
+            && !self.hooks.ordered(usize::from(next))
+            && (next + 1 == f.depth || w_near >= f.lod_w[usize::from(next) + 1])
+        {
+            // Every grandchild stops: the children are the last cells that descend.
+            self.final_parents(level, index, mask, first_child, c, p);
+        } else {
+            let disp = &f.disp[usize::from(next)];
+            self.each_child(
+                level,
+                index,
+                mask,
+                first_child,
+                ordered,
+                move |walker, s, k| {
+                    let d = disp[s & 31];
+                    let cp = walker.hooks.child(p, usize::from(next), s);
+                    walker.node(
+                        next,
+                        k.index,
+                        k.mask,
+                        k.grand,
+                        [c[0] + d[0], c[1] + d[1], c[2] + d[2]],
+                        cp,
+                        inside,
+                    );
+                },
+            );
+        }
         self.hooks.descended(l, p);
     }
 
-    /// Visits the children of cell `index` at `level` (child mask `mask`, children from
+    /// The children of cell `index` at `level` (inside the frustum) when all of their children
+    /// stop: what [`Walker::node`] would do for each, in one loop instead of a call per child, with
+    /// the cone test's eye vector from the cell's by the slot offsets (the deepest cells that
+    /// descend are a tenth of a frame's nodes; their calls were a third of its cost).
+    #[inline(always)]
+    fn final_parents(
+        &mut self,
+        level: u8,
+        index: u32,
+        mask: u32,
+        first_child: u32,
+        c: [i32; 3],
+        p: H::Pos,
+    ) {
+        let f = self.frame;
+        let next = level + 1;
+        let n = usize::from(next);
+        let disp = &f.disp[n];
+        let (e, lod, linear) = (f.ext[n].w, f.lod_w[n], f.linear_w[n + 1]);
+        let vp = if f.cones { self.to_model(c) } else { [0; 3] };
+        let step = f.half_step_model[usize::from(level)];
+        let mut grand = self.data.group(level, index);
+        let mut child = first_child;
+        let mut m = mask & Self::SLOT_BITS;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize & 31;
+            m &= m - 1;
+            let k = child;
+            child += 1;
+            count!(self.stats.nodes_visited += 1);
+            let d = disp[s];
+            let cc = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
+            let cp = self.hooks.child(p, n, s);
+            let cm = self.mask(next, k);
+            let first = grand;
+            grand += (cm & Self::SLOT_BITS).count_ones();
+            if cc[2] - e >= lod {
+                self.draw(next, k, cm, cc, cp, true);
+                continue;
+            }
+            let mut facing = Facing::Either;
+            if f.cones {
+                let o = f.slot_steps[s];
+                let v = core::array::from_fn(|a| vp[a] + i32::from(o[a]) * step);
+                facing = self.cone_facing(next, k, cm, cc, v);
+                if facing == Facing::Away {
+                    count!(self.stats.backfacing += 1);
+                    if H::FILL_CULLED {
+                        count!(self.stats.nodes_visited -= 1);
+                        self.cast_only(next, k, cm, first, cp);
+                    }
+                    continue;
+                }
+            }
+            if cc[2] >= linear {
+                if facing == Facing::Towards {
+                    self.draw_children_linear::<true>(next, cm, first, cc, cp);
+                } else {
+                    self.draw_children_linear::<false>(next, cm, first, cc, cp);
+                }
+            } else {
+                self.draw_children(next, k, cm, first, cc, cp, true);
+            }
+            self.hooks.descended(n, cp);
+        }
+    }
+
+    /// [`Walker::draw_children`] of a cell inside the frustum and far enough from the eye
+    /// ([`TgFrame::linear_w`]) that the perspective divide is linear over its children to within
+    /// [`crate::tg::frame::LINEAR_ERROR_PX`]: one division for the cell, then each child's splat
+    /// is the cell's projection plus its offset, in ticks along the three axes, times the screen
+    /// offset of one tick (Duguet §5.1's displacement tables, in screen space, for the last level),
+    /// and its depth and eye vector likewise. The offset is the child's slot plus its own children's
+    /// centroid, so the centroid costs three multiply-adds per coordinate, not a projection.
+    ///
+    /// `TOWARDS`: the cell's normal cone says every child faces the eye (no per-child test, and
+    /// the children are drawn at their centres: the centroid is for silhouettes).
+    #[inline(always)]
+    fn draw_children_linear<const TOWARDS: bool>(
+        &mut self,
+        level: u8,
+        mask: u32,
+        first_child: u32,
+        c: [i32; 3],
+        p: H::Pos,
+    ) {
+        let f = self.frame;
+        let next = level + 1;
+        let n = usize::from(next);
+        let leaves = next == f.depth;
+        let t = &f.tick[n];
+        let [x, y, w] = c;
+        let (r, shift) = recip(w as u32);
+        // 1/W = r31 / 2^(shift − 1), r31 < 2³¹; `W ≥ 2¹⁸` (the linear rule) makes
+        // `s = shift − 49 ≥ 0`, so `a / W` in Q16 is the high word of `a · r31`, shifted by `s`.
+        let r31 = (r >> 1) as i32;
+        let s = shift - 49;
+        let hi = |a: i32| ((i64::from(a) * i64::from(r31)) >> 32) as i32 >> s;
+        // The cell's centre, Q16 pixels, and the screen offset of one tick along each axis,
+        // Q16 pixels: d(X/W) = (dX − (X/W)·dW) / W. Bounded by the linear rule (a cell of at
+        // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
+        let (xp, yp) = (hi(x), hi(y));
+        // dW / W per tick, Q24: a tick is a small part of the depth (|dW| < 2²³ and
+        // |dW / W| < 2⁻⁸ under the linear rule), so `(xp >> 8) · u` fits an `i32`.
+        let u: [i32; 3] = core::array::from_fn(|a| hi(t[a][2] << 8));
+        let jx: [i32; 3] = core::array::from_fn(|a| hi(t[a][0]) - ((xp >> 8) * u[a] >> 16));
+        let jy: [i32; 3] = core::array::from_fn(|a| hi(t[a][1]) - ((yp >> 8) * u[a] >> 16));
+        // Depth per tick and the cell's depth, Q8 depth units.
+        let jd = &f.tick_depth[n];
+        let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24)
+            .min(65534 << 8) as i32;
+        // The footprint, Q8: k · 2^kshift / W, the high word of (k/2)·r31 shifted by
+        // shift − kshift − 34 (the children's own depths differ from the cell's by under 1 %).
+        let (k, kshift) = f.size_k[n];
+        let s3 = shift.wrapping_sub(kshift).wrapping_sub(34);
+        let size_q8 = if s3 < 32 {
+            (((i64::from(k >> 1) * i64::from(r31)) >> 32) as i32) >> s3
+        } else if shift > kshift {
+            ((u64::from(k) * u64::from(r)) >> (shift - kshift)).min(i32::MAX as u64) as i32
+        } else {
+            i32::MAX
+        };
+        let mut vp = None;
+        let tm = f.half_step_model[n];
+        let mut child = first_child;
+        let mut m = mask & Self::SLOT_BITS;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize & 31;
+            m &= m - 1;
+            let k = child;
+            child += 1;
+            count!(self.stats.nodes_visited += 1);
+            let cp = self.hooks.child(p, n, s);
+            let attr = self.data.attr(next, k);
+            let code = usize::from(attr & 0x1FFF);
+            if !TOWARDS && bit(&f.backface, code) {
+                count!(self.stats.backfacing += 1);
+                self.hooks.casts(n, cp);
+                continue;
+            }
+            // The splat's offset from the cell's centre, Q6 ticks: the slot, ρ·(2i − (ρ − 1)),
+            // plus the child's children's centroid, σ / n, where the normal needs the exact
+            // backface test (near a silhouette: where the splat's place changes which pixel
+            // centres it covers).
+            let front = TOWARDS || bit(&f.frontface, code);
+            let o: [i32; 3] = if leaves || front {
+                f.slot_ticks[s]
+            } else {
+                let st = f.slot_steps[s];
+                let (nc, sigma) = Self::centroid_sums(self.mask(next, k));
+                let q = RECIP_COUNT[nc as usize & 31];
+                let nc = nc as i32;
+                core::array::from_fn(|a| {
+                    ((i32::from(st[a]) * i32::from(RHO) * nc + sigma[a]) * q) >> 9
+                })
+            };
+            let dot = |j: &[i32; 3]| (o[0] * j[0] + o[1] * j[1] + o[2] * j[2]) >> 6;
+            let x_q8 = (xp + dot(&jx) + 128) >> 8;
+            let y_q8 = (yp + dot(&jy) + 128) >> 8;
+            if !covers_pixel_centre(x_q8, y_q8, size_q8) {
+                // It would draw nothing: no test, no depth (it still casts).
+                count!(self.stats.splats += 1);
+                self.hooks.casts(n, cp);
+                continue;
+            }
+            if !front {
+                let vp = *vp.get_or_insert_with(|| self.to_model(c));
+                let nq = NORMALS_Q14[code];
+                let v: [i32; 3] = core::array::from_fn(|a| vp[a] + ((o[a] * tm) >> 6));
+                let facing = i64::from(nq[0]) * i64::from(v[0])
+                    + i64::from(nq[1]) * i64::from(v[1])
+                    + i64::from(nq[2]) * i64::from(v[2]);
+                if facing > 0 {
+                    count!(self.stats.backfacing += 1);
+                    self.hooks.casts(n, cp);
+                    continue;
+                }
+            }
+            let shadowed = self.hooks.drawn(n, cp, attr);
+            let depth = ((dp + dot(&jd)).clamp(0, 65534 << 8) >> 8) as u16;
+            count!(self.stats.splats += 1);
+            count!(self.stats.shadowed += u32::from(shadowed));
+            count!(self.stats.max_level = self.stats.max_level.max(next));
+            self.sink.splat(&SampleSplat {
+                x_q8,
+                y_q8,
+                size_q8,
+                depth,
+                attr,
+                level: next,
+                index: k,
+                shadowed,
+                exact: true,
+            });
+        }
+    }
+
+    /// Draws every child of cell `index` at `level` (child mask word `mask`, children from
+    /// `first_child`): the children's level is where the descent stops. One pass over the mask's
+    /// bits, no recursion.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn draw_children(
+        &mut self,
+        level: u8,
+        index: u32,
+        mask: u32,
+        first_child: u32,
+        c: [i32; 3],
+        p: H::Pos,
+        inside: bool,
+    ) {
+        let f = self.frame;
+        let next = level + 1;
+        let n = usize::from(next);
+        let disp = &f.disp[n];
+        let lv = DrawLevel::of(f, next);
+        let has_grandchildren = next < f.depth;
+        // The model-frame vectors of the children for the exact backface test: the parent's, plus
+        // their slots' offsets along the grid's (the model's) axes.
+        let vp = self.to_model(c);
+        let step = f.half_step_model[usize::from(level)];
+        // Only a culled child that still casts (one-pass shadows) descends: it needs its first
+        // grandchild, the group pointer plus its elder siblings' children.
+        let mut grand = if H::FILL_CULLED && has_grandchildren {
+            self.data.group(level, index)
+        } else {
+            0
+        };
+        let mut child = first_child;
+        let mut m = mask & Self::SLOT_BITS;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize & 31;
+            m &= m - 1;
+            count!(self.stats.nodes_visited += 1);
+            let d = disp[s];
+            let cc = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
+            let cp = self.hooks.child(p, n, s);
+            let cm = if has_grandchildren {
+                self.mask(next, child)
+            } else {
+                0
+            };
+            if !inside && self.frustum(n, cc).0 {
+                count!(self.stats.culled += 1);
+                if H::FILL_CULLED {
+                    count!(self.stats.nodes_visited -= 1);
+                    self.cast_only(next, child, cm, grand, cp);
+                }
+            } else {
+                let o = f.slot_steps[s];
+                let v = core::array::from_fn(|k| vp[k] + i32::from(o[k]) * step);
+                self.draw_at(&lv, next, child, cm, cc, Some(v), cp, inside);
+            }
+            if H::FILL_CULLED {
+                grand += (cm & Self::SLOT_BITS).count_ones();
+            }
+            child += 1;
+        }
+        let _ = index;
+    }
+
+    /// Visits the children of cell `index` at `level` (child mask word `mask`, children from
     /// `first_child`): in light order when `ordered`, else in slot order, where the group pointer
     /// and a running popcount find each child's own children.
     #[inline(always)]
@@ -432,6 +930,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         ordered: bool,
         mut visit: impl FnMut(&mut Self, usize, Child),
     ) {
+        let mask = mask & Self::SLOT_BITS;
         if ordered {
             self.children(level, index, mask, first_child);
             let mut at = self.hooks.order().positions(mask);
@@ -454,7 +953,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         let mut child = first_child;
         let mut m = mask;
         while m != 0 {
-            let s = m.trailing_zeros() as usize;
+            let s = m.trailing_zeros() as usize & 31;
             m &= m - 1;
             let cm = if has_grandchildren {
                 self.mask(next, child)
@@ -470,7 +969,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
                     mask: cm,
                 },
             );
-            grand += cm.count_ones();
+            grand += (cm & Self::SLOT_BITS).count_ones();
             child += 1;
         }
     }
@@ -478,14 +977,17 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
     /// A subtree seen only by the light: descend to the light's level of detail and let every
     /// sample there cast into the shadow map.
     fn cast_only(&mut self, level: u8, index: u32, mask: u32, first_child: u32, p: H::Pos) {
-        self.stats.nodes_visited += 1;
+        count!(self.stats.nodes_visited += 1);
         let l = usize::from(level);
         if level == self.frame.depth
             || self.hooks.light_stop(l)
             || (D::STREAMED
-                && !self
-                    .data
-                    .children_resident(level, index, first_child, mask.count_ones()))
+                && !self.data.children_resident(
+                    level,
+                    index,
+                    first_child,
+                    (mask & Self::SLOT_BITS).count_ones(),
+                ))
         {
             self.hooks.casts(l, p);
             return;
@@ -506,58 +1008,230 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks> Walker<'f, 'h, 's, D
         );
     }
 
-    /// Screen centre and diameter (Q4 pixels) of a cell at level `l` with projected centre `c`: one
-    /// reciprocal look-up and three multiplies.
+    /// The model-frame vector from the eye to the point at `c`, in `W` units
+    /// ([`TgFrame::to_model`]; it fits an `i32`, as `c` does).
     #[inline(always)]
-    fn project(&self, l: usize, c: [i32; 3]) -> (i32, i32, i32) {
+    fn to_model(&self, c: [i32; 3]) -> [i32; 3] {
+        let m = &self.frame.to_model;
+        core::array::from_fn(|k| {
+            ((i64::from(m[k][0]) * i64::from(c[0])
+                + i64::from(m[k][1]) * i64::from(c[1])
+                + i64::from(m[k][2]) * i64::from(c[2]))
+                >> TO_MODEL_BITS) as i32
+        })
+    }
+
+    /// Whether every sample of the subtree of cell `index` at `level` (centre `c`, inside the
+    /// frustum) faces away from the eye, by the cell's normal cone (its class in `mask`'s top
+    /// bits; see [`TgFrame`]'s cone tables).
+    #[inline]
+    fn cone_backfacing(&self, level: u8, index: u32, mask: u32, c: [i32; 3]) -> bool {
+        let class = (mask >> 27 & 7) as usize;
+        if class == 0 || class == 7 {
+            return false;
+        }
+        self.cone_culls(level, index, mask, c, self.to_model(c))
+    }
+
+    /// [`Walker::cone_backfacing`] with the cell's eye vector `v` ([`Walker::to_model`] of `c`).
+    #[inline(always)]
+    fn cone_culls(&self, level: u8, index: u32, mask: u32, c: [i32; 3], v: [i32; 3]) -> bool {
+        self.cone_facing(level, index, mask, c, v) == Facing::Away
+    }
+
+    /// Which way the whole subtree of cell `index` at `level` (centre `c`, eye vector `v`, inside
+    /// the frustum) faces, by its normal cone: away from the eye at every sample
+    /// ([`Walker::cone_backfacing`]), towards it at every sample (the mirror test:
+    /// `−a·v > W·tan θ / cos θ_max + r / cos θ`), or either.
+    #[inline(always)]
+    fn cone_facing(&self, level: u8, index: u32, mask: u32, c: [i32; 3], v: [i32; 3]) -> Facing {
+        let class = (mask >> 27 & 7) as usize;
+        if class == 0 || class == 7 {
+            return Facing::Either;
+        }
+        let f = self.frame;
+        let code = usize::from(self.data.attr(level, index) & 0x1FFF);
+        let n = NORMALS_Q14[code];
+        let av = i64::from(n[0]) * i64::from(v[0])
+            + i64::from(n[1]) * i64::from(v[1])
+            + i64::from(n[2]) * i64::from(v[2]);
+        let bound =
+            i64::from(c[2]) * i64::from(f.cone_k[class & 7]) + f.cone_r[class & 7][usize::from(level)];
+        if av > bound {
+            Facing::Away
+        } else if -av > bound {
+            Facing::Towards
+        } else {
+            Facing::Either
+        }
+    }
+
+    /// Screen centre and footprint (Q8 pixels) of a cell at level `l` with projected centre `c`:
+    /// one reciprocal look-up and three multiplies.
+    ///
+    /// `x / w` is `x · r / 2^shift`. For the usual depths (`w ≥ 2¹⁰`, so `shift − 8 ≥ 32`) the
+    /// product's high word, rounded and shifted by `shift − 40` (a 32-bit shift), gives it in Q8:
+    /// one `smull` and two instructions, where a 64-bit shift by a variable amount takes eight on a
+    /// Cortex-M. Cells nearer the eye take the 64-bit path.
+    #[inline(always)]
+    fn project(&self, lv: &DrawLevel<'_>, c: [i32; 3]) -> (i32, i32, i32) {
         let [x, y, w] = c;
         let (r, shift) = recip(w as u32);
-        let r = i64::from(r);
-        let sh = shift - SUBPIXEL_BITS;
-        let half = 1i64 << (sh - 1);
-        let x_q4 = ((i64::from(x) * r + half) >> sh) as i32;
-        let y_q4 = ((i64::from(y) * r + half) >> sh) as i32;
-        let (k, kshift) = self.frame.size_k[l];
-        let size_q4 = if shift > kshift {
-            ((u64::from(k) * r as u64) >> (shift - kshift)).min(i32::MAX as u64) as i32
+        let (k, kshift) = lv.size_k;
+        let ks = shift.wrapping_sub(kshift);
+        let size_q8 = if (32..64).contains(&ks) {
+            (((u64::from(k) * u64::from(r)) >> 32) as u32 >> (ks - 32)).min(i32::MAX as u32) as i32
+        } else if shift > kshift {
+            ((u64::from(k) * u64::from(r)) >> ks).min(i32::MAX as u64) as i32
         } else {
             i32::MAX
         };
-        (x_q4, y_q4, size_q4)
+        let r = i64::from(r);
+        let sh = shift - SUBPIXEL_BITS;
+        if sh >= 33 {
+            let s = sh - 32;
+            let half = 1i32 << (s - 1);
+            let x_q8 = (((i64::from(x) * r) >> 32) as i32).wrapping_add(half) >> s;
+            let y_q8 = (((i64::from(y) * r) >> 32) as i32).wrapping_add(half) >> s;
+            return (x_q8, y_q8, size_q8);
+        }
+        let half = 1i64 << (sh - 1);
+        let x_q8 = ((i64::from(x) * r + half) >> sh) as i32;
+        let y_q8 = ((i64::from(y) * r + half) >> sh) as i32;
+        (x_q8, y_q8, size_q8)
     }
 
-    #[inline]
-    fn draw(&mut self, level: u8, index: u32, c: [i32; 3], p: H::Pos) {
+    /// The number `n` of children in `mask` and the sums `σ` of their slots' offsets from the
+    /// centre, in half child steps per axis (`Σ 2i − (ρ − 1)`): the centroid is `σ / n`.
+    #[inline(always)]
+    fn centroid_sums(mask: u32) -> (u32, [i32; 3]) {
+        if RHO == 3 {
+            let (t0, t1, t2) = (
+                CENTROID3[(mask & 511) as usize],
+                CENTROID3[(mask >> 9 & 511) as usize],
+                CENTROID3[(mask >> 18 & 511) as usize],
+            );
+            let t = t0 + t1 + t2;
+            (
+                t & 0xFF,
+                [
+                    (t >> 8 & 0xFF) as i32 - 96,
+                    (t >> 16 & 0xFF) as i32 - 96,
+                    2 * ((t2 & 0xFF) as i32 - (t0 & 0xFF) as i32),
+                ],
+            )
+        } else {
+            let t = CENTROID2[(mask & 255) as usize];
+            (
+                t & 0xFF,
+                [
+                    (t >> 8 & 0xFF) as i32 - 32,
+                    (t >> 16 & 0xFF) as i32 - 32,
+                    (t >> 24) as i32 - 32,
+                ],
+            )
+        }
+    }
+
+    /// Draws cell `index` at `level` (mask word `mask`, centre `c`) as its footprint, unless it
+    /// is behind the near plane or faces away from the eye.
+    #[inline(always)]
+    fn draw(&mut self, level: u8, index: u32, mask: u32, c: [i32; 3], p: H::Pos, inside: bool) {
+        let lv = DrawLevel::of(self.frame, level);
+        self.draw_at(&lv, level, index, mask, c, None, p, inside);
+    }
+
+    /// [`Walker::draw`] with the level's tables looked up: a loop over one level's cells looks
+    /// them up once. `inside`: the cell's parent lies inside the frustum, so the cell is in front
+    /// of the near plane.
+    /// `v`: the model-frame vector from the eye to the cell's centre, when the caller has it
+    /// ([`Walker::to_model`] otherwise, when the exact backface test needs it).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn draw_at(
+        &mut self,
+        lv: &DrawLevel<'_>,
+        level: u8,
+        index: u32,
+        mask: u32,
+        c: [i32; 3],
+        v: Option<[i32; 3]>,
+        p: H::Pos,
+        inside: bool,
+    ) {
         let f = self.frame;
-        let [_, _, w] = c;
         let l = usize::from(level);
-        if w < f.near_w {
+        if !inside && c[2] < f.near_w {
             self.hooks.casts(l, p);
             return;
         }
         let attr = self.data.attr(level, index);
         let code = usize::from(attr & 0x1FFF);
-        if f.backface[code / 32] >> (code % 32) & 1 != 0 {
-            self.stats.backfacing += 1;
+        if bit(&f.backface, code) {
+            // Backfacing for every ray of the view.
+            count!(self.stats.backfacing += 1);
+            self.hooks.casts(l, p);
+            return;
+        }
+        // At the children's centroid (Duguet §4.1 samples the surface nearest the cell's centre;
+        // the children say where in the cell the surface is).
+        let (c, o) = if mask & Self::SLOT_BITS != 0 {
+            // σ / n ticks of this level, Q6, then through the ticks' (X, Y, W) (64-bit: a cell
+            // drawn here may be any size).
+            let (nc, sigma) = Self::centroid_sums(mask);
+            let q = RECIP_COUNT[nc as usize & 31];
+            let o: [i32; 3] = sigma.map(|s| (s * q) >> 9);
+            let t = lv.tick;
+            (
+                core::array::from_fn(|k| {
+                    let d: i64 = (0..3).map(|a| i64::from(o[a]) * i64::from(t[a][k])).sum();
+                    c[k] + (d >> 6) as i32
+                }),
+                o,
+            )
+        } else {
+            (c, [0; 3])
+        };
+        // Neither always front- nor always backfacing: the exact test, at the centroid (at a
+        // silhouette the cell's centre may lie on the other side of the surface).
+        if !bit(&f.frontface, code) {
+            let v = match v {
+                Some(v) => core::array::from_fn(|k| v[k] + ((o[k] * lv.half_step_model) >> 6)),
+                None => self.to_model(c),
+            };
+            let n = NORMALS_Q14[code];
+            let facing = i64::from(n[0]) * i64::from(v[0])
+                + i64::from(n[1]) * i64::from(v[1])
+                + i64::from(n[2]) * i64::from(v[2]);
+            if facing > 0 {
+                count!(self.stats.backfacing += 1);
+                self.hooks.casts(l, p);
+                return;
+            }
+        }
+        let (x_q8, y_q8, size_q8) = self.project(lv, c);
+        if !covers_pixel_centre(x_q8, y_q8, size_q8) {
+            // It would draw nothing (it still casts).
+            count!(self.stats.splats += 1);
             self.hooks.casts(l, p);
             return;
         }
         let shadowed = self.hooks.drawn(l, p, attr);
-        let (x_q4, y_q4, size_q4) = self.project(l, c);
-        let dz = (w - f.depth_w0).max(0) as u64;
+        let dz = (c[2] - f.depth_w0).max(0) as u64;
         let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
-        self.stats.splats += 1;
-        self.stats.shadowed += u32::from(shadowed);
-        self.stats.max_level = self.stats.max_level.max(level);
+        count!(self.stats.splats += 1);
+        count!(self.stats.shadowed += u32::from(shadowed));
+        count!(self.stats.max_level = self.stats.max_level.max(level));
         self.sink.splat(&SampleSplat {
-            x_q4,
-            y_q4,
-            size_q4,
+            x_q8,
+            y_q8,
+            size_q8,
             depth,
             attr,
             level,
             index,
             shadowed,
+            exact: true,
         });
     }
 }

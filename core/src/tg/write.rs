@@ -5,8 +5,9 @@ use std::vec::Vec;
 
 use super::{
     mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
-    FLAG_COLOR, MAGIC, VERSION,
+    CONE_SHIFT, FLAG_COLOR, FLAG_CONES, MAGIC, VERSION,
 };
+use crate::bake::cone::cone_classes;
 use crate::bake::BakedGrid;
 use crate::crc::crc32;
 
@@ -72,6 +73,12 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
     let depth = levels - 1;
     let mb = mask_bytes(grid.rho) as usize;
     let color = grid.levels[0].colors.is_some();
+    // Normal cones go in the spare bits of ρ = 3 masks.
+    let cones = if grid.cones && grid.rho == 3 {
+        cone_classes(grid)
+    } else {
+        Vec::new()
+    };
 
     // Array sizes, level by level: attributes, colours, masks, groups.
     let mut sizes = Vec::with_capacity(levels);
@@ -124,8 +131,9 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
                 0 => put_u16s(dst, &level.attrs),
                 1 => put_u16s(dst, level.colors.as_deref().unwrap_or(&[])),
                 2 => {
-                    for (chunk, m) in dst.chunks_exact_mut(mb).zip(&level.masks) {
-                        chunk.copy_from_slice(&m.to_le_bytes()[..mb]);
+                    for (i, (chunk, m)) in dst.chunks_exact_mut(mb).zip(&level.masks).enumerate() {
+                        let cone = cones.get(l).map_or(0, |c| u128::from(c[i]));
+                        chunk.copy_from_slice(&(m | cone << CONE_SHIFT).to_le_bytes()[..mb]);
                     }
                 }
                 _ => {
@@ -143,7 +151,8 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
     let h = &mut file[..bs];
     h[0..4].copy_from_slice(&MAGIC);
     h[4..6].copy_from_slice(&VERSION.to_le_bytes());
-    h[6..8].copy_from_slice(&(if color { FLAG_COLOR } else { 0 }).to_le_bytes());
+    let flags = if color { FLAG_COLOR } else { 0 } | if cones.is_empty() { 0 } else { FLAG_CONES };
+    h[6..8].copy_from_slice(&flags.to_le_bytes());
     h[8] = grid.rho;
     h[9] = depth as u8;
     h[10] = 13;

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use pocketsplat_core::bake::{bake_grid, BakeOptions, BakedGrid, TriMesh};
 use pocketsplat_core::camera::{self, Camera, Placement, Sphere, Vec3, View, HEIGHT, WIDTH};
-use pocketsplat_core::fixed::ONE_PX_Q4;
+use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::normal::{self, NORMAL_COUNT};
 use pocketsplat_core::raster::MAX_SPLAT_PX;
@@ -31,6 +31,9 @@ use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
 
 use crate::render::FrameBuffers;
+
+/// One pixel in the splats' fixed point.
+const ONE_PX: f64 = ONE_PX_Q8 as f64;
 
 /// Largest allowed distance between a splat's centre and the f64 projection of its cell's centre.
 pub const MAX_ERROR_PX: f64 = 0.5;
@@ -835,9 +838,9 @@ fn excess(r: [i64; 4], b: [f64; 4]) -> f64 {
 
 /// The pixels the raster writes for a splat (before clipping), as `raster.rs` computes them, in i64.
 fn drawn_rect(s: &SampleSplat) -> [i64; 4] {
-    let size = i64::from(s.size_q4.clamp(1, MAX_SPLAT_PX * ONE_PX_Q4));
+    let size = i64::from(s.size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8));
     let half = size >> 1;
-    let (x, y) = (i64::from(s.x_q4), i64::from(s.y_q4));
+    let (x, y) = (i64::from(s.x_q8), i64::from(s.y_q8));
     let first = |c: i64| (c - half + 7) >> 4;
     let end = |c: i64| (c + half + 7) >> 4;
     let r = [first(x), end(x), first(y), end(y)];
@@ -888,17 +891,17 @@ impl<S: SplatSink> SplatSink for Probe<'_, S> {
             self.inner.splat(s);
             return;
         }
-        if s.size_q4 < 0 {
+        if s.size_q8 < 0 {
             m.wrapped += 1;
         }
         let p = cam.screen(x, y, z);
-        let pos_err = (f64::from(s.x_q4) / 16.0 - p[0])
+        let pos_err = (f64::from(s.x_q8) / ONE_PX - p[0])
             .abs()
-            .max((f64::from(s.y_q4) / 16.0 - p[1]).abs());
+            .max((f64::from(s.y_q8) / ONE_PX - p[1]).abs());
         let size_true = 2.0 * radius * cam.focal_px / z;
         // The diameter too, where the raster draws it unclamped.
         let size_err = if size_true < f64::from(MAX_SPLAT_PX) {
-            (f64::from(s.size_q4) / 16.0 - size_true).abs()
+            (f64::from(s.size_q8) / ONE_PX - size_true).abs()
         } else {
             0.0
         };
@@ -921,9 +924,9 @@ impl<S: SplatSink> SplatSink for Probe<'_, S> {
                         "level {l} cell {} drawn at ({:.2}, {:.2}) size {:.2}, f64 ({:.2}, {:.2}) \
                          size {:.2}, depth {:.3e}",
                         s.index,
-                        f64::from(s.x_q4) / 16.0,
-                        f64::from(s.y_q4) / 16.0,
-                        f64::from(s.size_q4) / 16.0,
+                        f64::from(s.x_q8) / ONE_PX,
+                        f64::from(s.y_q8) / ONE_PX,
+                        f64::from(s.size_q8) / ONE_PX,
                         p[0],
                         p[1],
                         size_true,

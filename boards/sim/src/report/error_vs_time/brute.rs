@@ -20,6 +20,7 @@ use std::ops::Range;
 use std::time::Instant;
 
 use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
 use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
 use pocketsplat_core::scene::{slot_attr, slot_bits, Scene, SceneOptions};
@@ -29,6 +30,9 @@ use pocketsplat_core::tg::TriGrid;
 
 use crate::render::{FrameBuffers, FrameReport, Settings};
 use crate::scene::render::SceneTable;
+
+/// One pixel in the splats' fixed point.
+const ONE_PX: f64 = ONE_PX_Q8 as f64;
 
 /// The leaf samples of a grid as a flat point list (the brute-force "format").
 #[derive(Clone, Debug)]
@@ -132,7 +136,7 @@ impl LeafCloud {
                 points: &self.points,
                 attrs: &self.attrs,
                 rotation: &Placement::IDENTITY.rotation,
-                size_k: 3f64.sqrt() * self.leaf_side * cam.focal_px * 16.0,
+                size_k: 3f64.sqrt() * self.leaf_side * cam.focal_px * ONE_PX,
             },
             &mut fb,
             &mut stats,
@@ -274,7 +278,7 @@ impl SceneCloud {
                     points: &self.points[o.range.clone()],
                     attrs: &self.attrs[o.range.clone()],
                     rotation: &o.rotation,
-                    size_k: 3f64.sqrt() * o.leaf_side * camera.focal_px * 16.0,
+                    size_k: 3f64.sqrt() * o.leaf_side * camera.focal_px * ONE_PX,
                 },
                 &mut fb,
                 &mut stats,
@@ -304,7 +308,7 @@ struct PointRun<'p> {
     attrs: &'p [u16],
     /// Model-to-world rotation of the normal codes (row-major).
     rotation: &'p [[f64; 3]; 3],
-    /// Splat diameter in Q4 pixels times camera depth: `√3 · leaf side (world) · f · 16`.
+    /// Splat diameter in Q8 pixels times camera depth: `√3 · leaf side (world) · f · 16`.
     size_k: f64,
 }
 
@@ -346,8 +350,8 @@ impl<const M: usize> BruteFrame<'_, M> {
             let inv = cam.focal_px / z;
             let sx = cx + camera::dot(d, cam.right) * inv;
             let sy = cy - camera::dot(d, cam.up) * inv;
-            let size_q4 = run.size_k / z;
-            let r = size_q4 / 32.0 + 1.0;
+            let size_q8 = run.size_k / z;
+            let r = size_q8 / (2.0 * ONE_PX) + 1.0;
             if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
                 stats.culled += 1;
                 continue;
@@ -355,13 +359,16 @@ impl<const M: usize> BruteFrame<'_, M> {
             let depth = ((z - self.z0) * self.z_scale).clamp(0.0, 65534.0) as u16;
             fb.splat(
                 &Splat {
-                    x_q4: (sx * 16.0).round() as i32,
-                    y_q4: (sy * 16.0).round() as i32,
-                    size_q4: size_q4.round().min(f64::from(i32::MAX)) as i32,
+                    x_q8: (sx * ONE_PX).round() as i32,
+                    y_q8: (sy * ONE_PX).round() as i32,
+                    size_q8: size_q8.round().min(f64::from(i32::MAX)) as i32,
                     depth,
                     color: self.table.color(attr),
                 },
                 self.kernel,
+                // The baseline's splat: at least one pixel (the tri-grid drew this before its exact
+                // footprints; see the module docs).
+                false,
             );
             stats.splats += 1;
         }
