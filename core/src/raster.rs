@@ -184,6 +184,28 @@ pub fn covers_pixel_centre(x_q8: i32, y_q8: i32, size_q8: i32) -> bool {
     x1 > x0 && y1 > y0
 }
 
+/// The pixels `x0..x1 × y0..y1` (before clipping to the screen) a square splat at
+/// `(x_q8, y_q8)` of `size_q8` writes, as [`Framebuffer::splat`] draws it: those whose centres
+/// it covers; when none, nothing if `exact`, else the pixel under its centre.
+pub fn drawn_pixels(x_q8: i32, y_q8: i32, size_q8: i32, exact: bool) -> [i32; 4] {
+    let s = Splat {
+        x_q8,
+        y_q8,
+        size_q8,
+        depth: 0,
+        color: 0,
+    };
+    let (x0, x1, y0, y1) = footprint(&s, size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8), exact);
+    if x1 > x0 && y1 > y0 {
+        [x0, x1, y0, y1]
+    } else if exact {
+        [x0, x0, y0, y0]
+    } else {
+        let (x, y) = (x_q8 >> SUBPIXEL_BITS, y_q8 >> SUBPIXEL_BITS);
+        [x, x + 1, y, y + 1]
+    }
+}
+
 /// Half the side of a splat of `size` (Q8): an exact footprint rounds up, so that rounding never
 /// opens a gap between neighbours.
 #[inline(always)]

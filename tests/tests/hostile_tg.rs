@@ -16,7 +16,7 @@ use pocketsplat_core::splat::NullSink;
 use pocketsplat_core::tg::write::seal;
 use pocketsplat_core::tg::{
     render_tg, RenderOptions, TgError, TgFrame, TriGrid, Verify, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
-    MAX_DEPTH,
+    CONE_SHIFT, FLAG_COLOR, FLAG_CONES, MAX_DEPTH,
 };
 use pocketsplat_sim::cmd::bake::bake_mesh;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
@@ -93,6 +93,11 @@ fn render_bounded(grid: &TriGrid<'_>) -> u64 {
 
 /// [`render_bounded`], from a few views only when not `thorough` (thousands of files).
 fn render_views(grid: &TriGrid<'_>, thorough: bool) -> u64 {
+    render_views_culling(grid, thorough, true)
+}
+
+/// [`render_views`] with backface culling (per splat and by normal cones) on or off.
+fn render_views_culling(grid: &TriGrid<'_>, thorough: bool, backface_culling: bool) -> u64 {
     let h = *grid.header();
     let total = grid.total_samples();
     let mut views: Vec<View> = STANDARD_VIEWS.iter().map(|(_, v)| *v).collect();
@@ -117,6 +122,7 @@ fn render_views(grid: &TriGrid<'_>, thorough: bool) -> u64 {
             let cam = settings.camera(h.bounds);
             let opts = RenderOptions {
                 cutoff_px: cutoff,
+                backface_culling,
                 ..RenderOptions::default()
             };
             // A header number so extreme that no frame can be set up is refused here, not drawn.
@@ -376,11 +382,20 @@ fn check_field_error(
 ) {
     let flags = u16::from_le_bytes([b[6], b[7]]);
     let ok = match field {
-        Field::Flags if flags & !1 != 0 => got == TgError::UnsupportedFlags(flags),
+        // Unknown bits, or normal cones on a grid whose masks have no spare bits for them (ρ ≠ 3).
+        Field::Flags if flags & !(FLAG_COLOR | if h.rho == 3 { FLAG_CONES } else { 0 }) != 0 => {
+            got == TgError::UnsupportedFlags(flags)
+        }
+        // The cone flag cleared: the cone classes in the masks' spare bits are now bad mask bits.
+        Field::Flags if (flags ^ h.flags) & FLAG_CONES != 0 => {
+            matches!(got, TgError::BadMask { .. })
+        }
         // The colour flag without a colour array (offset 0), or a colour array without the flag.
         Field::Flags => matches!(got, TgError::BadArray { level: 0, offset }
             if offset == u32_at(b, dir_at(0, 2))),
         Field::Rho if !(2..=5).contains(&b[8]) => got == TgError::UnsupportedRho(b[8]),
+        // Normal cones are for ρ = 3 only.
+        Field::Rho if h.has_cones() && got == TgError::UnsupportedFlags(flags) => true,
         Field::Rho => matches!(
             got,
             TgError::BadArray { .. }
@@ -594,10 +609,12 @@ fn child_masks_inconsistent_with_the_data() {
             let bad_mask = TgError::BadMask { level, index };
             // Empty: an interior cell without children.
             assert_eq!(open(&put(0)).unwrap_err(), bad_mask, "{name}");
-            // A bit at or above ρ³ (ρ = 2 fills its byte: no such bit).
-            if (slots as usize) < 8 * mb {
+            // A bit at or above ρ³, or above the cone class where the file has cones (ρ = 2
+            // fills its byte: no such bit).
+            let spare = if h.has_cones() { CONE_SHIFT + 3 } else { slots };
+            if (spare as usize) < 8 * mb {
                 assert_eq!(
-                    open(&put(mask | 1 << slots)).unwrap_err(),
+                    open(&put(mask | 1 << spare)).unwrap_err(),
                     bad_mask,
                     "{name}"
                 );
@@ -843,9 +860,11 @@ fn damaged_data_fails_full_and_renders_under_structure() {
     for (name, bytes) in bases() {
         let grid = open(&bytes).unwrap();
         let h = *grid.header();
-        let clean = render_bounded(&grid);
         // Attributes and colours: any 16 bits are a normal code and a material (clamped), so a
-        // file trusted as flash (Structure) renders the same cells, in other colours.
+        // file trusted as flash (Structure) renders the same cells, in other colours. (With
+        // backface culling the normals decide which cells are drawn and, as the axes of the
+        // normal cones, which subtrees are visited: compare without it.)
+        let clean = render_views_culling(&grid, true, false);
         for level in [0, h.depth / 2, h.depth] {
             let d = grid.level(level);
             let mut b = bytes.clone();
@@ -860,7 +879,12 @@ fn damaged_data_fails_full_and_renders_under_structure() {
                 "{name}"
             );
             let g = TriGrid::open(&b, Verify::Structure).expect("structure intact");
-            assert_eq!(render_bounded(&g), clean, "{name}: same cells visited");
+            render_bounded(&g);
+            assert_eq!(
+                render_views_culling(&g, true, false),
+                clean,
+                "{name}: same cells visited"
+            );
         }
         // A damaged CRC-table block: Full names it, Structure does not read it.
         let mut b = bytes.clone();

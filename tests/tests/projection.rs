@@ -36,8 +36,35 @@ fn cell_centres(tg: &TriGrid<'_>) -> Vec<Vec<[f64; 3]>> {
     levels
 }
 
+/// f64 centroid of every cell's children's centres, per level in file order (`None` for a leaf):
+/// where the walk may draw a cell instead of its centre (Duguet §4.1: the surface in the cell).
+fn child_centroids(tg: &TriGrid<'_>, centres: &[Vec<[f64; 3]>]) -> Vec<Vec<Option<[f64; 3]>>> {
+    let h = tg.header();
+    let mut out = Vec::new();
+    for l in 0..=h.depth {
+        let n = centres[usize::from(l)].len();
+        if l == h.depth {
+            out.push(vec![None; n]);
+            continue;
+        }
+        let mut first = 0usize;
+        let mut level = Vec::with_capacity(n);
+        for i in 0..n {
+            let k = (tg.mask(l, i as u32)).count_ones() as usize;
+            let kids = &centres[usize::from(l) + 1][first..first + k];
+            first += k;
+            level.push((k > 0).then(|| {
+                std::array::from_fn(|a| kids.iter().map(|c| c[a]).sum::<f64>() / k as f64)
+            }));
+        }
+        out.push(level);
+    }
+    out
+}
+
 struct Check<'a> {
     centres: &'a [Vec<[f64; 3]>],
+    centroids: &'a [Vec<Option<[f64; 3]>>],
     camera: Camera,
     worst: f64,
     splats: u64,
@@ -45,14 +72,21 @@ struct Check<'a> {
 
 impl SplatSink for Check<'_> {
     fn splat(&mut self, s: &SampleSplat) {
-        let c = self.centres[usize::from(s.level)][s.index as usize];
-        let p = self
-            .camera
-            .project(c)
-            .expect("a drawn splat is in front of the near plane");
-        let err = (f64::from(s.x_q8) / 256.0 - p[0])
-            .abs()
-            .max((f64::from(s.y_q8) / 256.0 - p[1]).abs());
+        let (l, i) = (usize::from(s.level), s.index as usize);
+        // At the cell's centre or at its children's centroid: the nearer of the two.
+        let err = [Some(self.centres[l][i]), self.centroids[l][i]]
+            .into_iter()
+            .flatten()
+            .map(|c| {
+                let p = self
+                    .camera
+                    .project(c)
+                    .expect("a drawn splat is in front of the near plane");
+                (f64::from(s.x_q8) / 256.0 - p[0])
+                    .abs()
+                    .max((f64::from(s.y_q8) / 256.0 - p[1]).abs())
+            })
+            .fold(f64::INFINITY, f64::min);
         self.worst = self.worst.max(err);
         self.splats += 1;
         assert!(
@@ -73,6 +107,7 @@ fn rng(seed: &mut u64) -> f64 {
 
 fn run(tg: &TriGrid<'_>, cameras: usize) -> (f64, u64) {
     let centres = cell_centres(tg);
+    let centroids = child_centroids(tg, &centres);
     let sphere = Sphere::from_bounds(tg.header().bounds);
     let mut seed = 0x2545_F491_4F6C_DD1Du64;
     let (mut worst, mut splats) = (0.0f64, 0u64);
@@ -102,6 +137,7 @@ fn run(tg: &TriGrid<'_>, cameras: usize) -> (f64, u64) {
         let frame = TgFrame::new(tg.header(), &Placement::IDENTITY, &camera, &opts).expect("frame");
         let mut check = Check {
             centres: &centres,
+            centroids: &centroids,
             camera,
             worst: 0.0,
             splats: 0,

@@ -107,6 +107,7 @@ fn every_torture_source_converges_to_the_resident_frame() {
         ),
     ];
     let mut failures = Vec::new();
+    let mut seen_failures = std::collections::BTreeMap::new();
     for (view_name, view) in STANDARD_VIEWS {
         let settings = Settings {
             view,
@@ -142,12 +143,8 @@ fn every_torture_source_converges_to_the_resident_frame() {
                 ));
             }
             let c = out.counters;
-            if name.contains('%') {
-                assert!(
-                    c.read_errors + c.crc_errors > 0,
-                    "{view_name}, {name}: no failure was counted"
-                );
-            }
+            // A view that needs few blocks may draw none of the failures: count them per source.
+            *seen_failures.entry(*name).or_insert(0) += c.read_errors + c.crc_errors;
             // Every frame kept to its budget (the budget rounds up to one block).
             let bs = 1u32
                 << TriGrid::open(file, Verify::Full)
@@ -162,6 +159,11 @@ fn every_torture_source_converges_to_the_resident_frame() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+    for (name, _, _) in &sources {
+        if name.contains('%') {
+            assert!(seen_failures[name] > 0, "{name}: no failure was counted in any view");
+        }
+    }
 }
 
 /// A source that fails every read of one block, or damages it, forever.
@@ -283,8 +285,9 @@ fn hostile_sources_give_errors_not_panics() {
     let mut tiny = vec![0u8; 3 * 4096];
     let err = TgStream::open(&mut src, &mut tiny, &mut slots, &mut blocks).unwrap_err();
     assert!(err.to_string().contains("needs at least 4"), "{err}");
-    // A file cut short: blocks past the end fail to read, the frame stays coarse, no panic.
-    let cut = &big[..big.len() / 2];
+    // A file cut short: blocks past the end fail to read, the frame stays coarse, no panic. An
+    // eighth ends inside level 5, which the standard view draws.
+    let cut = &big[..big.len() / 8];
     let mut src = MemSource::new(cut);
     let settings = Settings::default();
     let mut fb = FrameBuffers::new();

@@ -123,6 +123,16 @@ pub struct Extents {
     pub b: i32,
 }
 
+/// What a frame's backface tables depend on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct BackfaceKey {
+    /// Backface culling on.
+    culling: bool,
+    /// The view direction in the model frame (Q14) and the threshold of the per-frame test;
+    /// `None` when the view is too wide for it.
+    frame: Option<([i32; 3], i32)>,
+}
+
 /// The integer tables of one frame of one tri-grid.
 #[derive(Clone, Debug)]
 pub struct TgFrame {
@@ -175,10 +185,9 @@ pub struct TgFrame {
     pub(crate) backface: [u32; NORMAL_COUNT / 32],
     /// Bit per normal code: front-facing for every ray of the view (neither bit: the exact test).
     pub(crate) frontface: [u32; NORMAL_COUNT / 32],
-    /// What `backface` was made from: the view direction in the model frame (Q14) and the
-    /// threshold; `None` for the empty table (no culling). [`TgFrame::set`] keeps the table when
-    /// they repeat.
-    backface_key: Option<([i32; 3], i32)>,
+    /// What `backface` and `frontface` were made from (`None` before the first frame).
+    /// [`TgFrame::set`] keeps the tables when it repeats.
+    backface_key: Option<BackfaceKey>,
     pub(crate) kernel: Kernel,
 }
 
@@ -509,25 +518,32 @@ impl TgFrame {
 
         // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
         // the image corner from the axis plus a 2° margin (splats straddle the border).
-        let mut key = None;
+        let mut key = BackfaceKey {
+            culling: opts.backface_culling,
+            frame: None,
+        };
         if opts.backface_culling {
             let theta = libm::atan(libm::sqrt(cx * cx + cy * cy) / f) + 2f64.to_radians();
             if theta < core::f64::consts::FRAC_PI_2 {
                 let fwd = placement.to_model_dir(camera.forward);
                 let fq = fwd.map(|c| libm::round(c * 16384.0) as i32);
                 let threshold = to_i32(libm::sin(theta) * 16384.0 * 16384.0) + 3 * 16384;
-                key = Some((fq, threshold));
+                key.frame = Some((fq, threshold));
             }
         }
         // The table depends on the key alone: rebuilt only when it changes.
         // Front-facing for every ray: n·forward < −sin(θmax), the mirror image. Codes in neither
         // table get the exact test per splat (`n · v > 0`).
-        if key != self.backface_key {
+        if Some(key) != self.backface_key {
             self.backface = [0u32; NORMAL_COUNT / 32];
-            // Without culling every code is "front": no splat is tested.
-            self.frontface = [u32::MAX; NORMAL_COUNT / 32];
-            if let Some((fq, threshold)) = key {
-                self.frontface = [0u32; NORMAL_COUNT / 32];
+            // Without culling every code is "front": no splat is tested. With culling but a view
+            // too wide for the per-frame test, every splat takes the exact test.
+            self.frontface = if key.culling {
+                [0u32; NORMAL_COUNT / 32]
+            } else {
+                [u32::MAX; NORMAL_COUNT / 32]
+            };
+            if let Some((fq, threshold)) = key.frame {
                 for (code, n) in NORMALS_Q14.iter().enumerate() {
                     let d =
                         i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
@@ -538,7 +554,7 @@ impl TgFrame {
                     }
                 }
             }
-            self.backface_key = key;
+            self.backface_key = Some(key);
         }
         self.rho = header.rho;
         self.depth = header.depth;

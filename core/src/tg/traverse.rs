@@ -612,9 +612,11 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let ordered = self.hooks.ordered(l);
         // Every child stops when even this cell's nearest point is far enough for the children's
         // level, or they are leaves: draw them in one flat loop, without recursion or the running
-        // group pointer (which only a descent needs). The one-pass shadows' ordered levels and a
-        // streamed grid take the general path.
-        if !ordered && !D::STREAMED && (next == f.depth || w_near >= f.lod_w[usize::from(next)]) {
+        // group pointer (which only a descent needs). The one-pass shadows' ordered levels take
+        // the general path. A streamed grid takes the same paths as a resident one (its frame,
+        // once every block is in, is the resident frame bit for bit): the children's residency
+        // was checked above, and `final_parents` checks the grandchildren's.
+        if !ordered && (next == f.depth || w_near >= f.lod_w[usize::from(next)]) {
             if inside && c[2] >= f.linear_w[usize::from(next)] {
                 self.draw_children_linear::<false>(level, mask, first_child, c, p);
             } else {
@@ -622,7 +624,6 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             }
         } else if inside
             && !ordered
-            && !D::STREAMED
             && next < f.depth
             && !self.hooks.ordered(usize::from(next))
             && (next + 1 == f.depth || w_near >= f.lod_w[usize::from(next) + 1])
@@ -709,6 +710,16 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                     continue;
                 }
             }
+            if D::STREAMED {
+                // As in `node`: the grandchildren not here yet, so draw the child and ask.
+                let n = (cm & Self::SLOT_BITS).count_ones();
+                if !self.data.children_resident(next, k, first, n) {
+                    let (_, y_q8, size_q8) = self.project(&DrawLevel::of(f, next), cc);
+                    self.data.request_children(next, k, first, n, size_q8, y_q8);
+                    self.draw(next, k, cm, cc, cp, true);
+                    continue;
+                }
+            }
             if cc[2] >= linear {
                 if facing == Facing::Towards {
                     self.draw_children_linear::<true>(next, cm, first, cc, cp);
@@ -758,10 +769,11 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
         let (xp, yp) = (hi(x), hi(y));
         // dW / W per tick, Q24: a tick is a small part of the depth (|dW| < 2²³ and
-        // |dW / W| < 2⁻⁸ under the linear rule), so `(xp >> 8) · u` fits an `i32`.
+        // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
         let u: [i32; 3] = core::array::from_fn(|a| hi(t[a][2] << 8));
-        let jx: [i32; 3] = core::array::from_fn(|a| hi(t[a][0]) - ((xp >> 8) * u[a] >> 16));
-        let jy: [i32; 3] = core::array::from_fn(|a| hi(t[a][1]) - ((yp >> 8) * u[a] >> 16));
+        let du = |p: i32, u: i32| ((i64::from(p) * i64::from(u)) >> 24) as i32;
+        let jx: [i32; 3] = core::array::from_fn(|a| hi(t[a][0]) - du(xp, u[a]));
+        let jy: [i32; 3] = core::array::from_fn(|a| hi(t[a][1]) - du(yp, u[a]));
         // Depth per tick and the cell's depth, Q8 depth units.
         let jd = &f.tick_depth[n];
         let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24)

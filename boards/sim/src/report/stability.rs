@@ -23,11 +23,12 @@ use pocketsplat_core::camera::{self, Camera, Placement, Sphere, Vec3, View, HEIG
 use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::normal::{self, NORMAL_COUNT};
-use pocketsplat_core::raster::MAX_SPLAT_PX;
+use pocketsplat_core::raster::{drawn_pixels, Kernel, MAX_SPLAT_PX};
 use pocketsplat_core::shade::{phong, to_rgb565, ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
 use pocketsplat_core::tg::write::write_tg;
+use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
 
 use crate::render::FrameBuffers;
@@ -524,6 +525,8 @@ pub struct Baked {
     pub centres: Vec<Vec<Vec3>>,
     /// Cell side per level, model units.
     pub side: Vec<f64>,
+    /// The centroid of each cell's children's centres, per level in file order (`None` for a leaf).
+    pub centroids: Vec<Vec<Option<Vec3>>>,
 }
 
 impl Baked {
@@ -557,11 +560,32 @@ impl Baked {
             }
             centres.push(next);
         }
+        let mut centroids = Vec::with_capacity(centres.len());
+        for l in 0..=h.depth {
+            let (here, below) = (&centres[usize::from(l)], centres.get(usize::from(l) + 1));
+            let mut first = 0usize;
+            centroids.push(
+                (0..here.len())
+                    .map(|i| {
+                        let kids = below?;
+                        let k = tg.mask(l, i as u32).count_ones() as usize;
+                        let kids = &kids[first..first + k];
+                        first += k;
+                        (k > 0).then(|| {
+                            std::array::from_fn(|a| {
+                                kids.iter().map(|c| c[a]).sum::<f64>() / k as f64
+                            })
+                        })
+                    })
+                    .collect(),
+            );
+        }
         Self {
             grid,
             bytes,
             centres,
             side,
+            centroids,
         }
     }
 
@@ -838,17 +862,7 @@ fn excess(r: [i64; 4], b: [f64; 4]) -> f64 {
 
 /// The pixels the raster writes for a splat (before clipping), as `raster.rs` computes them, in i64.
 fn drawn_rect(s: &SampleSplat) -> [i64; 4] {
-    let size = i64::from(s.size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8));
-    let half = size >> 1;
-    let (x, y) = (i64::from(s.x_q8), i64::from(s.y_q8));
-    let first = |c: i64| (c - half + 7) >> 4;
-    let end = |c: i64| (c + half + 7) >> 4;
-    let r = [first(x), end(x), first(y), end(y)];
-    if r[1] <= r[0] || r[3] <= r[2] {
-        [x >> 4, (x >> 4) + 1, y >> 4, (y >> 4) + 1]
-    } else {
-        r
-    }
+    drawn_pixels(s.x_q8, s.y_q8, s.size_q8, s.exact).map(i64::from)
 }
 
 fn on_screen(r: [i64; 4]) -> bool {
@@ -873,6 +887,10 @@ impl<S: SplatSink> SplatSink for Probe<'_, S> {
         let centre_model = shot.baked.centres[l][s.index as usize];
         let centre = model_to_camera(cam, &shot.placement, centre_model);
         let [x, y, z] = centre;
+        // The walk draws a cell at its centre or at its children's centroid (Duguet §4.1: where
+        // in the cell the surface is): the splat's position is held to the nearer of the two.
+        let centroid = shot.baked.centroids[l][s.index as usize]
+            .map(|c| model_to_camera(cam, &shot.placement, c));
         // The splat stands for the cell's bounding sphere; its projected square lies inside the
         // projection of the sphere's camera-aligned bounding cube (exactly: the square's half-width
         // is radius · f / z at the projected centre).
@@ -895,10 +913,26 @@ impl<S: SplatSink> SplatSink for Probe<'_, S> {
             m.wrapped += 1;
         }
         let p = cam.screen(x, y, z);
-        let pos_err = (f64::from(s.x_q8) / ONE_PX - p[0])
-            .abs()
-            .max((f64::from(s.y_q8) / ONE_PX - p[1]).abs());
-        let size_true = 2.0 * radius * cam.focal_px / z;
+        let off = |p: Vec3| {
+            (f64::from(s.x_q8) / ONE_PX - p[0])
+                .abs()
+                .max((f64::from(s.y_q8) / ONE_PX - p[1]).abs())
+        };
+        let pos_err = match centroid {
+            Some([cx, cy, cz]) if cz > 0.0 => off(p).min(off(cam.screen(cx, cy, cz))),
+            _ => off(p),
+        };
+        // The footprint (`pocketsplat_core::tg::frame`): FOOTPRINT × the projected side of an
+        // exact splat; the bounding sphere's diameter otherwise.
+        let size_true = if s.exact {
+            let k = match shot.opts.kernel {
+                Kernel::Square => FOOTPRINT,
+                Kernel::Round => FOOTPRINT_ROUND,
+            };
+            k * shot.baked.side[l] * shot.placement.scale * cam.focal_px / z
+        } else {
+            2.0 * radius * cam.focal_px / z
+        };
         // The diameter too, where the raster draws it unclamped.
         let size_err = if size_true < f64::from(MAX_SPLAT_PX) {
             (f64::from(s.size_q8) / ONE_PX - size_true).abs()
@@ -1078,12 +1112,36 @@ fn check(shot: &Shot<'_>) -> Outcome {
     shoot(shot).outcome()
 }
 
-/// Requires that something was drawn (a vacuous pass proves nothing).
+/// Requires that something was drawn (a vacuous pass proves nothing) where, in f64, some leaf's
+/// footprint covers a pixel centre. A model smaller than that draws nothing: its splats, exact
+/// footprints, cover no pixel centre, as the surface itself covers none.
 fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let m = shoot(shot);
     let mut o = m.outcome();
-    if m.stats.splats == 0 || m.covered() == 0 {
+    let b = shot.baked;
+    let leaf = b.side.len() - 1;
+    let half = 0.5 * FOOTPRINT * b.side[leaf] * shot.placement.scale;
+    let cam = &shot.camera;
+    let over_a_centre = b.centres[leaf].iter().any(|&c| {
+        let [x, y, z] = model_to_camera(cam, &shot.placement, c);
+        if z <= cam.near {
+            return false;
+        }
+        let p = cam.screen(x, y, z);
+        let h = half * cam.focal_px / z;
+        // A pixel centre i + ½ in [p − h, p + h) on both axes, on the screen.
+        let centre_in = |a: f64, b: f64, n: f64| {
+            let (first, end) = ((a - 0.5).ceil().max(0.0), (b - 0.5).ceil().min(n));
+            first < end
+        };
+        centre_in(p[0] - h, p[0] + h, WIDTH as f64) && centre_in(p[1] - h, p[1] + h, HEIGHT as f64)
+    });
+    if over_a_centre && (m.stats.splats == 0 || m.covered() == 0) {
         o.fail("nothing drawn where the model is in view");
+    }
+    if !over_a_centre {
+        o.notes
+            .push_str("; no leaf covers a pixel centre: nothing to draw");
     }
     o
 }

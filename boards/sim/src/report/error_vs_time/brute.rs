@@ -5,10 +5,11 @@
 //!
 //! A point is skipped when it lies in front of the near plane, faces away from the eye
 //! (`n · (p − eye) > 0`, exact per point, where the tri-grid's test is conservative per frame) or its
-//! splat misses the frame. The splat is the one the tri-grid traversal draws for a leaf (the
-//! projected diameter of the cell's bounding sphere, `√3 · side · f / z`), shaded through the same
-//! table and depth-tested in the same 16-bit buffer, so the two differ only in how they choose and
-//! project samples.
+//! splat misses the frame. The splat ([`Footprint`]) is, for the report's baseline, the one the
+//! tri-grid traversal drew for a leaf before its exact footprints (the projected diameter of the
+//! cell's bounding sphere, `√3 · side · f / z`, at least one pixel), or the tri-grid's exact
+//! footprint; either is shaded through the same table and depth-tested in the same 16-bit buffer,
+//! so the two differ only in how they choose and project samples.
 //!
 //! A scene pack's baseline ([`SceneCloud`]) is every object's leaves placed in the world, drawn as
 //! the scene renderer draws its objects (`pocketsplat_core::scene::render`): each point's material
@@ -26,6 +27,7 @@ use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
 use pocketsplat_core::scene::{slot_attr, slot_bits, Scene, SceneOptions};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
+use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
 use pocketsplat_core::tg::TriGrid;
 
 use crate::render::{FrameBuffers, FrameReport, Settings};
@@ -33,6 +35,30 @@ use crate::scene::render::SceneTable;
 
 /// One pixel in the splats' fixed point.
 const ONE_PX: f64 = ONE_PX_Q8 as f64;
+
+/// The splat a brute-force point draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Footprint {
+    /// The baseline the error-against-run-time report has always compared with (the splat the
+    /// tri-grid drew before its exact footprints): the projected diameter of the leaf cell's
+    /// bounding sphere, `√3 · side · f / z`, and at least one pixel.
+    #[default]
+    Sphere,
+    /// The tri-grid's footprint (`pocketsplat_core::tg::frame`): `FOOTPRINT` × the projected
+    /// side, only on the pixel centres it covers.
+    Exact,
+}
+
+impl Footprint {
+    /// Splat diameter per projected leaf side.
+    fn scale(self, kernel: Kernel) -> f64 {
+        match (self, kernel) {
+            (Footprint::Sphere, _) => 3f64.sqrt(),
+            (Footprint::Exact, Kernel::Square) => FOOTPRINT,
+            (Footprint::Exact, Kernel::Round) => FOOTPRINT_ROUND,
+        }
+    }
+}
 
 /// The leaf samples of a grid as a flat point list (the brute-force "format").
 #[derive(Clone, Debug)]
@@ -47,6 +73,8 @@ pub struct LeafCloud {
     pub root: (Vec3, f64),
     /// Bounding box of the mesh, model units (the views orbit its centre).
     pub bounds: [[f32; 3]; 2],
+    /// The splat each point draws ([`Footprint::Sphere`], the report's baseline, by default).
+    pub footprint: Footprint,
 }
 
 impl LeafCloud {
@@ -85,6 +113,7 @@ impl LeafCloud {
             leaf_side,
             root: (origin, side),
             bounds: h.bounds,
+            footprint: Footprint::default(),
         }
     }
 
@@ -129,6 +158,7 @@ impl LeafCloud {
             z_scale,
             table,
             kernel: settings.kernel,
+            exact: self.footprint == Footprint::Exact,
             backface_culling: true,
         };
         frame.draw(
@@ -136,7 +166,7 @@ impl LeafCloud {
                 points: &self.points,
                 attrs: &self.attrs,
                 rotation: &Placement::IDENTITY.rotation,
-                size_k: 3f64.sqrt() * self.leaf_side * cam.focal_px * ONE_PX,
+                size_k: self.footprint.scale(settings.kernel) * self.leaf_side * cam.focal_px * ONE_PX,
             },
             &mut fb,
             &mut stats,
@@ -187,6 +217,8 @@ pub struct SceneCloud {
     pub attrs: Vec<u16>,
     /// The objects, in pack order.
     pub objects: Vec<CloudObject>,
+    /// The splat each point draws, as [`LeafCloud::footprint`].
+    pub footprint: Footprint,
 }
 
 impl SceneCloud {
@@ -196,6 +228,7 @@ impl SceneCloud {
             points: Vec::new(),
             attrs: Vec::new(),
             objects: Vec::with_capacity(scene.len()),
+            footprint: Footprint::default(),
         };
         for i in 0..scene.len() {
             // The scene renderer skips such an object too (never, for an opened scene).
@@ -270,6 +303,7 @@ impl SceneCloud {
             z_scale,
             table,
             kernel: opts.kernel,
+            exact: self.footprint == Footprint::Exact,
             backface_culling: opts.backface_culling,
         };
         for o in &self.objects {
@@ -278,7 +312,7 @@ impl SceneCloud {
                     points: &self.points[o.range.clone()],
                     attrs: &self.attrs[o.range.clone()],
                     rotation: &o.rotation,
-                    size_k: 3f64.sqrt() * o.leaf_side * camera.focal_px * ONE_PX,
+                    size_k: self.footprint.scale(opts.kernel) * o.leaf_side * camera.focal_px * ONE_PX,
                 },
                 &mut fb,
                 &mut stats,
@@ -308,7 +342,7 @@ struct PointRun<'p> {
     attrs: &'p [u16],
     /// Model-to-world rotation of the normal codes (row-major).
     rotation: &'p [[f64; 3]; 3],
-    /// Splat diameter in Q8 pixels times camera depth: `√3 · leaf side (world) · f · 16`.
+    /// Splat diameter in Q8 pixels times camera depth: `scale · leaf side (world) · f · 256`.
     size_k: f64,
 }
 
@@ -320,6 +354,8 @@ struct BruteFrame<'f, const M: usize> {
     z_scale: f64,
     table: &'f ShadingTable<M>,
     kernel: Kernel,
+    /// Draw only on covered pixel centres ([`Footprint::Exact`]), else at least one pixel.
+    exact: bool,
     /// Skip points whose world normal faces away from the eye.
     backface_culling: bool,
 }
@@ -366,9 +402,7 @@ impl<const M: usize> BruteFrame<'_, M> {
                     color: self.table.color(attr),
                 },
                 self.kernel,
-                // The baseline's splat: at least one pixel (the tri-grid drew this before its exact
-                // footprints; see the module docs).
-                false,
+                self.exact,
             );
             stats.splats += 1;
         }
@@ -432,7 +466,11 @@ mod tests {
     fn matches_the_trigrid_drawing_all_leaves() {
         let bytes = knot_grid(4);
         let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
-        let cloud = LeafCloud::from_grid(&grid);
+        // The tri-grid's own footprint: the two differ only in how they pick and project.
+        let cloud = LeafCloud {
+            footprint: Footprint::Exact,
+            ..LeafCloud::from_grid(&grid)
+        };
         for kernel in [Kernel::Square, Kernel::Round] {
             let settings = Settings {
                 cutoff_px: 0.01,
@@ -626,7 +664,10 @@ anchor = "center"
 
         let bytes = small_pack();
         let scene = open_scene(&bytes);
-        let cloud = SceneCloud::from_scene(&scene);
+        let cloud = SceneCloud {
+            footprint: Footprint::Exact,
+            ..SceneCloud::from_scene(&scene)
+        };
         for kernel in [Kernel::Square, Kernel::Round] {
             let settings = PackSettings {
                 cutoff_px: 0.01,
