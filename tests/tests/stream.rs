@@ -161,7 +161,10 @@ fn every_torture_source_converges_to_the_resident_frame() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     for (name, _, _) in &sources {
         if name.contains('%') {
-            assert!(seen_failures[name] > 0, "{name}: no failure was counted in any view");
+            assert!(
+                seen_failures[name] > 0,
+                "{name}: no failure was counted in any view"
+            );
         }
     }
 }

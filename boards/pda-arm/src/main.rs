@@ -160,7 +160,9 @@ mod firmware {
             ram_budget(p, shadows, p.shadow_map_size()).total()
         );
         // The materials' power tables, once, before the first frame (no view needs them rebuilt).
-        targets.table.prepare(&scene.materials::<{ pocketsplat_core::scene::MAX_SLOTS }>());
+        targets
+            .table
+            .prepare(&scene.materials::<{ pocketsplat_core::scene::MAX_SLOTS }>());
         for spec in scene_frame_specs(&scene) {
             match render_scene_view(&scene, spec, &mut targets, marks::hit) {
                 Ok(report) => hprintln!("{}", report),

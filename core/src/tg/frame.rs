@@ -497,13 +497,17 @@ impl TgFrame {
                 let t = t + 0.5f64.to_radians();
                 cone_k[class] = to_i32(k_fov * libm::tan(t) * 16384.0);
                 let mut cell = side;
-                for level in 0..=usize::from(header.depth) {
+                for (level, r_out) in cone_r[class]
+                    .iter_mut()
+                    .enumerate()
+                    .take(usize::from(header.depth) + 1)
+                {
                     if level > 0 {
                         cell /= rho as f64;
                     }
                     // Bounding radius of the cell in W units, plus the rounding of c.
                     let r = 0.5 * libm::sqrt(3.0) * cell * placement.scale * scale + 4.0;
-                    cone_r[class][level] = (r / libm::cos(t) * 16384.0) as i64;
+                    *r_out = (r / libm::cos(t) * 16384.0) as i64;
                 }
             }
         }

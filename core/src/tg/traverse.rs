@@ -11,8 +11,8 @@ use super::frame::{TgFrame, MAX_SLOTS, TO_MODEL_BITS};
 use super::read::{LevelArrays, TriGrid};
 use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
-use crate::raster::covers_pixel_centre;
 use crate::normal::NORMALS_Q14;
+use crate::raster::covers_pixel_centre;
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
 /// What a shadow algorithm adds to the walk. Implemented by [`NoShadows`] and, with the `shadows`
@@ -397,8 +397,10 @@ pub fn render_nodes<D: NodeData, S: SplatSink, H: ShadowHooks>(
 ) -> Stats {
     // One walk per ρ it draws, so that every ρ-dependent branch is decided at compile time.
     match frame.rho {
-        2 => Walker::<_, _, _, 2>::new(data, frame, hooks, sink).map_or_else(Stats::default, |w| w.walk()),
-        _ => Walker::<_, _, _, 3>::new(data, frame, hooks, sink).map_or_else(Stats::default, |w| w.walk()),
+        2 => Walker::<_, _, _, 2>::new(data, frame, hooks, sink)
+            .map_or_else(Stats::default, |w| w.walk()),
+        _ => Walker::<_, _, _, 3>::new(data, frame, hooks, sink)
+            .map_or_else(Stats::default, |w| w.walk()),
     }
 }
 
@@ -776,8 +778,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let jy: [i32; 3] = core::array::from_fn(|a| hi(t[a][1]) - du(yp, u[a]));
         // Depth per tick and the cell's depth, Q8 depth units.
         let jd = &f.tick_depth[n];
-        let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24)
-            .min(65534 << 8) as i32;
+        let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24).min(65534 << 8)
+            as i32;
         // The footprint, Q8: k · 2^kshift / W, the high word of (k/2)·r31 shifted by
         // shift − kshift − 34 (the children's own depths differ from the cell's by under 1 %).
         let (k, kshift) = f.size_k[n];
@@ -846,7 +848,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 }
             }
             let shadowed = self.hooks.drawn(n, cp, attr);
-            let depth = ((dp + dot(&jd)).clamp(0, 65534 << 8) >> 8) as u16;
+            let depth = ((dp + dot(jd)).clamp(0, 65534 << 8) >> 8) as u16;
             count!(self.stats.splats += 1);
             count!(self.stats.shadowed += u32::from(shadowed));
             count!(self.stats.max_level = self.stats.max_level.max(next));
@@ -1067,8 +1069,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let av = i64::from(n[0]) * i64::from(v[0])
             + i64::from(n[1]) * i64::from(v[1])
             + i64::from(n[2]) * i64::from(v[2]);
-        let bound =
-            i64::from(c[2]) * i64::from(f.cone_k[class & 7]) + f.cone_r[class & 7][usize::from(level)];
+        let bound = i64::from(c[2]) * i64::from(f.cone_k[class & 7])
+            + f.cone_r[class & 7][usize::from(level)];
         if av > bound {
             Facing::Away
         } else if -av > bound {

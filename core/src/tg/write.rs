@@ -4,8 +4,8 @@ use std::vec;
 use std::vec::Vec;
 
 use super::{
-    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
-    CONE_SHIFT, FLAG_COLOR, FLAG_CONES, MAGIC, VERSION,
+    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, CONE_SHIFT, DIRECTORY_ENTRY,
+    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, MAGIC, VERSION,
 };
 use crate::bake::cone::cone_classes;
 use crate::bake::BakedGrid;

@@ -166,7 +166,10 @@ impl LeafCloud {
                 points: &self.points,
                 attrs: &self.attrs,
                 rotation: &Placement::IDENTITY.rotation,
-                size_k: self.footprint.scale(settings.kernel) * self.leaf_side * cam.focal_px * ONE_PX,
+                size_k: self.footprint.scale(settings.kernel)
+                    * self.leaf_side
+                    * cam.focal_px
+                    * ONE_PX,
             },
             &mut fb,
             &mut stats,
@@ -312,7 +315,10 @@ impl SceneCloud {
                     points: &self.points[o.range.clone()],
                     attrs: &self.attrs[o.range.clone()],
                     rotation: &o.rotation,
-                    size_k: self.footprint.scale(opts.kernel) * o.leaf_side * camera.focal_px * ONE_PX,
+                    size_k: self.footprint.scale(opts.kernel)
+                        * o.leaf_side
+                        * camera.focal_px
+                        * ONE_PX,
                 },
                 &mut fb,
                 &mut stats,
