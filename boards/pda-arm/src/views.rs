@@ -785,7 +785,13 @@ mod tests {
         )
         .unwrap();
         assert_eq!((counted.splats, counted.nodes), (Some(12), Some(345)));
-        assert!(counted.matches(&report) == COUNTED);
+        // A line's counts, when it has them, must be the report's.
+        assert!(counted.matches(&report));
+        let miscounted = FrameLine::parse(
+            "frame close cutoff 4 shadows one-pass crc 0x00abcdef splats 13 nodes 345",
+        )
+        .unwrap();
+        assert!(!miscounted.matches(&report));
         let parsed = FrameLine::parse(&line).unwrap();
         assert!(parsed.matches(&report));
         assert_eq!(parsed.spec(), Some(report.spec));
