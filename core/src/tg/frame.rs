@@ -52,7 +52,7 @@ pub const FOOTPRINT: f64 = 1.1;
 /// area, `FOOTPRINT · 2/√π`.
 pub const FOOTPRINT_ROUND: f64 = 1.25;
 /// The largest error, in pixels, that linearising the perspective divide over a cell's children
-/// may add to their splats' positions ([`TgFrame::linear_w`]).
+/// may add to their splats' positions (`TgFrame::linear_w`).
 pub const LINEAR_ERROR_PX: f64 = 1.0 / 32.0;
 /// The smallest `W` the linearised loop takes: its divisions are 32-bit from there on.
 const LINEAR_MIN_W: f64 = (1u32 << 18) as f64;

@@ -115,7 +115,7 @@ pub trait NodeData {
 /// A memory-resident grid: every block is present, reads are slices cut once per level.
 ///
 /// Its reads are not bounds-checked: [`TriGrid::open`] proved every index the walk can compute
-/// (see [`unchecked`]).
+/// (see the private module `unchecked`).
 #[derive(Clone, Copy, Debug)]
 pub struct Resident<'g> {
     /// Indexed by `level & 15`: in range without a check.
