@@ -114,14 +114,23 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
         } else {
             (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS)
         };
-        if x < 0 || y < 0 || x >= W as i32 || y >= H as i32 {
+        self.pixel(x, y, s.depth, || s.color)
+    }
+
+    /// Writes pixel `(x, y)` (nothing off the screen) with a depth test; returns 1 if written.
+    /// `color` is asked for only when the pixel passes the depth test, so that a traversal which
+    /// has already found a splat's one pixel ([`exact_footprint`]) shades only what shows.
+    #[inline(always)]
+    pub fn pixel(&mut self, x: i32, y: i32, depth: u16, color: impl FnOnce() -> u16) -> u32 {
+        // One unsigned comparison per axis also rejects negative coordinates.
+        if x as u32 >= W as u32 || y as u32 >= H as u32 {
             return 0;
         }
         let (x, y) = (x as usize, y as usize);
         let d = &mut self.depth[y][x];
-        if s.depth < *d {
-            *d = s.depth;
-            self.color[y][x] = s.color;
+        if depth < *d {
+            *d = depth;
+            self.color[y][x] = color();
             1
         } else {
             0
@@ -168,11 +177,13 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
     }
 }
 
-/// Whether an exact square footprint of `size_q8` at `(x_q8, y_q8)` contains a pixel centre
-/// (what [`Framebuffer::splat`] draws of it: nothing when this is false), so that a traversal can
-/// skip the rest of a splat that would draw nothing.
+/// The pixels `[x0, x1, y0, y1]` (`x0..x1 × y0..y1`, before clipping to the screen) whose centres
+/// an exact square splat of `size_q8` at `(x_q8, y_q8)` covers, as [`Framebuffer::splat`] draws it:
+/// empty (`x1 ≤ x0` or `y1 ≤ y0`) when it covers none, so that a traversal can skip the rest of a
+/// splat that would draw nothing, and hand one that covers a single pixel to
+/// [`Framebuffer::pixel`] without finding its footprint again.
 #[inline(always)]
-pub fn covers_pixel_centre(x_q8: i32, y_q8: i32, size_q8: i32) -> bool {
+pub fn exact_footprint(x_q8: i32, y_q8: i32, size_q8: i32) -> [i32; 4] {
     let s = Splat {
         x_q8,
         y_q8,
@@ -181,7 +192,7 @@ pub fn covers_pixel_centre(x_q8: i32, y_q8: i32, size_q8: i32) -> bool {
         color: 0,
     };
     let (x0, x1, y0, y1) = footprint(&s, size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8), true);
-    x1 > x0 && y1 > y0
+    [x0, x1, y0, y1]
 }
 
 /// The pixels `x0..x1 × y0..y1` (before clipping to the screen) a square splat at

@@ -34,6 +34,15 @@ pub struct SampleSplat {
 pub trait SplatSink {
     /// Draws (or records) one splat.
     fn splat(&mut self, s: &SampleSplat);
+
+    /// Draws (or records) an exact square splat whose footprint the caller has found to be the one
+    /// pixel `(x, y)` ([`crate::raster::exact_footprint`]): what [`SplatSink::splat`] does with
+    /// it, without finding the footprint again. By default, exactly that call.
+    #[inline(always)]
+    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
+        let _ = (x, y);
+        self.splat(s);
+    }
 }
 
 /// Counts of one frame's traversal.
@@ -85,6 +94,23 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
             self.kernel,
             s.exact,
         );
+    }
+
+    #[inline(always)]
+    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
+        // A round kernel tests the disc, not the square's one pixel centre.
+        if self.kernel != Kernel::Square || !s.exact {
+            return self.splat(s);
+        }
+        let table = self.table;
+        // Shaded only if it passes the depth test.
+        self.fb.pixel(x, y, s.depth, || {
+            if s.shadowed {
+                table.shadowed(s.attr)
+            } else {
+                table.color(s.attr)
+            }
+        });
     }
 }
 

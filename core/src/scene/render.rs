@@ -462,6 +462,12 @@ impl<S: SplatSink> SplatSink for Slotted<'_, S> {
         let attr = slot_attr(&self.slot_bits, s.attr);
         self.inner.splat(&SampleSplat { attr, ..*s });
     }
+
+    #[inline(always)]
+    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
+        let attr = slot_attr(&self.slot_bits, s.attr);
+        self.inner.pixel(&SampleSplat { attr, ..*s }, x, y);
+    }
 }
 
 fn add(total: &mut Stats, s: &Stats) {

@@ -12,7 +12,7 @@ use super::read::{LevelArrays, TriGrid};
 use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
 use crate::normal::NORMALS_Q14;
-use crate::raster::covers_pixel_centre;
+use crate::raster::exact_footprint;
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
 /// What a shadow algorithm adds to the walk. Implemented by [`NoShadows`] and, with the `shadows`
@@ -772,10 +772,12 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let (xp, yp) = (hi(x), hi(y));
         // dW / W per tick, Q24: a tick is a small part of the depth (|dW| < 2²³ and
         // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
-        let u: [i32; 3] = core::array::from_fn(|a| hi(t[a][2] << 8));
+        // (Written out per axis: `array::from_fn` here stays a call per array on thumbv7m.)
+        let u = [hi(t[0][2] << 8), hi(t[1][2] << 8), hi(t[2][2] << 8)];
         let du = |p: i32, u: i32| ((i64::from(p) * i64::from(u)) >> 24) as i32;
-        let jx: [i32; 3] = core::array::from_fn(|a| hi(t[a][0]) - du(xp, u[a]));
-        let jy: [i32; 3] = core::array::from_fn(|a| hi(t[a][1]) - du(yp, u[a]));
+        let j = |a: usize, c: usize, p: i32| hi(t[a][c]) - du(p, u[a]);
+        let jx = [j(0, 0, xp), j(1, 0, xp), j(2, 0, xp)];
+        let jy = [j(0, 1, yp), j(1, 1, yp), j(2, 1, yp)];
         // Depth per tick and the cell's depth, Q8 depth units.
         let jd = &f.tick_depth[n];
         let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24).min(65534 << 8)
@@ -828,7 +830,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             let dot = |j: &[i32; 3]| (o[0] * j[0] + o[1] * j[1] + o[2] * j[2]) >> 6;
             let x_q8 = (xp + dot(&jx) + 128) >> 8;
             let y_q8 = (yp + dot(&jy) + 128) >> 8;
-            if !covers_pixel_centre(x_q8, y_q8, size_q8) {
+            let [x0, x1, y0, y1] = exact_footprint(x_q8, y_q8, size_q8);
+            if x1 <= x0 || y1 <= y0 {
                 // It would draw nothing: no test, no depth (it still casts).
                 count!(self.stats.splats += 1);
                 self.hooks.casts(n, cp);
@@ -852,7 +855,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             count!(self.stats.splats += 1);
             count!(self.stats.shadowed += u32::from(shadowed));
             count!(self.stats.max_level = self.stats.max_level.max(next));
-            self.sink.splat(&SampleSplat {
+            let splat = SampleSplat {
                 x_q8,
                 y_q8,
                 size_q8,
@@ -862,7 +865,19 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 index: k,
                 shadowed,
                 exact: true,
-            });
+            };
+            Self::emit(self.sink, &splat, [x0, x1, y0, y1]);
+        }
+    }
+
+    /// Hands an exact splat with footprint `[x0, x1, y0, y1]` (not empty) to the sink: as its one
+    /// pixel when it covers one (nearly every splat of a frame), else whole.
+    #[inline(always)]
+    fn emit(sink: &mut S, splat: &SampleSplat, [x0, x1, y0, y1]: [i32; 4]) {
+        if x1 == x0 + 1 && y1 == y0 + 1 {
+            sink.pixel(splat, x0, y0);
+        } else {
+            sink.splat(splat);
         }
     }
 
@@ -1224,7 +1239,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             }
         }
         let (x_q8, y_q8, size_q8) = self.project(lv, c);
-        if !covers_pixel_centre(x_q8, y_q8, size_q8) {
+        let fp = exact_footprint(x_q8, y_q8, size_q8);
+        if fp[1] <= fp[0] || fp[3] <= fp[2] {
             // It would draw nothing (it still casts).
             count!(self.stats.splats += 1);
             self.hooks.casts(l, p);
@@ -1236,7 +1252,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         count!(self.stats.splats += 1);
         count!(self.stats.shadowed += u32::from(shadowed));
         count!(self.stats.max_level = self.stats.max_level.max(level));
-        self.sink.splat(&SampleSplat {
+        let splat = SampleSplat {
             x_q8,
             y_q8,
             size_q8,
@@ -1246,6 +1262,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             index,
             shadowed,
             exact: true,
-        });
+        };
+        Self::emit(self.sink, &splat, fp);
     }
 }
