@@ -62,12 +62,8 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
 
     /// Clears colour to `background` and depth to [`DEPTH_FAR`].
     pub fn clear(&mut self, background: u16) {
-        for row in self.color.iter_mut() {
-            row.fill(background);
-        }
-        for row in self.depth.iter_mut() {
-            row.fill(DEPTH_FAR);
-        }
+        fill(self.color.as_flattened_mut(), background);
+        fill(self.depth.as_flattened_mut(), DEPTH_FAR);
     }
 
     /// The colour rows.
@@ -175,6 +171,19 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
         }
         written
     }
+}
+
+/// Sets every element of `buf` to `v`, 32 bytes per step where `buf` is word-aligned (a Cortex-M3
+/// then stores 8 words per loop turn instead of a byte loop's one: a clear is 0.23 M instructions
+/// per frame otherwise).
+#[allow(unsafe_code)]
+fn fill(buf: &mut [u16], v: u16) {
+    // SAFETY: every bit pattern is a valid `u16` and a valid `u32`, so viewing the aligned middle of
+    // the slice as words is sound; `align_to_mut` keeps the ends that are not aligned as `u16`s.
+    let (head, body, tail) = unsafe { buf.align_to_mut::<[u32; 8]>() };
+    head.fill(v);
+    body.fill([u32::from(v) * 0x1_0001; 8]);
+    tail.fill(v);
 }
 
 /// The pixels `[x0, x1, y0, y1]` (`x0..x1 × y0..y1`, before clipping to the screen) whose centres

@@ -10,3 +10,4 @@ mod table {
     include!(concat!(env!("OUT_DIR"), "/normals_q14.rs"));
 }
 pub use table::NORMALS_Q14;
+pub(crate) use table::NORMAL_BOXES_Q14;

@@ -34,7 +34,7 @@
 use super::read::Header;
 use super::MAX_LEVELS;
 use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
-use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
+use crate::normal::{NORMALS_Q14, NORMAL_BOXES_Q14, NORMAL_COUNT};
 use crate::raster::Kernel;
 
 /// Child slots of the largest ρ the traversal draws (ρ = 3).
@@ -548,15 +548,7 @@ impl TgFrame {
                 [u32::MAX; NORMAL_COUNT / 32]
             };
             if let Some((fq, threshold)) = key.frame {
-                for (code, n) in NORMALS_Q14.iter().enumerate() {
-                    let d =
-                        i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
-                    if d > threshold {
-                        self.backface[code / 32] |= 1 << (code % 32);
-                    } else if d < -threshold {
-                        self.frontface[code / 32] |= 1 << (code % 32);
-                    }
-                }
+                facing_tables(fq, threshold, &mut self.backface, &mut self.frontface);
             }
             self.backface_key = Some(key);
         }
@@ -611,6 +603,41 @@ impl TgFrame {
                 ((w * i128::from(scale)) >> 24).clamp(i128::from(i32::MIN), i128::from(i32::MAX))
                     as i32
             });
+        }
+    }
+}
+
+/// Sets the bit of every normal code with `n · fq > threshold` in `back` and of every one with
+/// `n · fq < −threshold` in `front` (both cleared by the caller), a word of 32 codes at a time where
+/// their box of normals decides it.
+fn facing_tables(
+    fq: [i32; 3],
+    threshold: i32,
+    back: &mut [u32; NORMAL_COUNT / 32],
+    front: &mut [u32; NORMAL_COUNT / 32],
+) {
+    for (w, b) in NORMAL_BOXES_Q14.iter().enumerate() {
+        // n · fq over the 32 codes' box: when the whole interval lies on one side of both
+        // thresholds, the word is decided without its codes (most of the sphere).
+        let (mut lo, mut hi) = (0i32, 0i32);
+        for (a, &f) in fq.iter().enumerate() {
+            let (p, q) = (i32::from(b[a]) * f, i32::from(b[3 + a]) * f);
+            lo += p.min(q);
+            hi += p.max(q);
+        }
+        if lo > threshold {
+            back[w] = u32::MAX;
+        } else if hi < -threshold {
+            front[w] = u32::MAX;
+        } else if lo < -threshold || hi > threshold {
+            for (i, n) in NORMALS_Q14[32 * w..32 * w + 32].iter().enumerate() {
+                let d = i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
+                if d > threshold {
+                    back[w] |= 1 << i;
+                } else if d < -threshold {
+                    front[w] |= 1 << i;
+                }
+            }
         }
     }
 }
@@ -735,6 +762,38 @@ mod tests {
         }
         for x in xs {
             assert_eq!(to_i32(x), old(x), "{x:e} ({:#x})", x.to_bits());
+        }
+    }
+
+    #[test]
+    fn facing_tables_match_the_test_per_code() {
+        let mut seed = 0x9e37_79b9_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for round in 0..300 {
+            let v: Vec3 = core::array::from_fn(|_| next());
+            let len = camera::dot(v, v).sqrt();
+            let fq = v.map(|c| (c / len * 16384.0).round() as i32);
+            // Thresholds from 0 to past the largest dot product.
+            let threshold = (f64::from(round % 30) / 29.0 * 1.05 * 16384.0 * 16384.0) as i32;
+            let (mut back, mut front) = ([0u32; NORMAL_COUNT / 32], [0u32; NORMAL_COUNT / 32]);
+            facing_tables(fq, threshold, &mut back, &mut front);
+            for (code, n) in NORMALS_Q14.iter().enumerate() {
+                let d = i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
+                let bit = |t: &[u32]| t[code / 32] >> (code % 32) & 1 != 0;
+                assert_eq!(
+                    bit(&back),
+                    d > threshold,
+                    "code {code}, fq {fq:?}, t {threshold}"
+                );
+                assert_eq!(
+                    bit(&front),
+                    d < -threshold,
+                    "code {code}, fq {fq:?}, t {threshold}"
+                );
+            }
         }
     }
 
