@@ -177,7 +177,7 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
 /// then stores 8 words per loop turn instead of a byte loop's one: a clear is 0.23 M instructions
 /// per frame otherwise).
 #[allow(unsafe_code)]
-fn fill(buf: &mut [u16], v: u16) {
+pub(crate) fn fill(buf: &mut [u16], v: u16) {
     // SAFETY: every bit pattern is a valid `u16` and a valid `u32`, so viewing the aligned middle of
     // the slice as words is sound; `align_to_mut` keeps the ends that are not aligned as `u16`s.
     let (head, body, tail) = unsafe { buf.align_to_mut::<[u32; 8]>() };

@@ -89,7 +89,7 @@ impl<'a> ShadowMap<'a> {
     }
     /// Clears to "nothing casts".
     pub fn clear(&mut self) {
-        self.depth[..self.size * self.size].fill(u16::MAX);
+        crate::raster::fill(&mut self.depth[..self.size * self.size], u16::MAX);
     }
     /// The depths, row by row.
     pub fn depths(&self) -> &[u16] {
@@ -132,16 +132,32 @@ impl<'a> ShadowMap<'a> {
             (u1, v1) = (u0, v0);
         }
         let n = self.size as i32 - 1;
-        let (ua, ub) = (u0.max(0), u1.min(n));
-        if ub < ua {
+        let (ua, ub, va, vb) = (u0.max(0), u1.min(n), v0.max(0), v1.min(n));
+        if ub < ua || vb < va {
             return;
         }
-        for tv in v0.max(0)..=v1.min(n) {
-            let row = &mut self.depth[tv as usize * self.size..][..self.size];
-            for t in &mut row[ua as usize..=ub as usize] {
-                if d < *t {
-                    *t = d;
+        // One slice from the first texel to the last (one bounds check), then the rows: nearly
+        // every footprint is 2 or 3 texels wide, which the match writes without a loop.
+        let (size, w) = (self.size, (ub - ua) as usize + 1);
+        let start = va as usize * size + ua as usize;
+        let end = vb as usize * size + ub as usize + 1;
+        let keep_nearer = |t: &mut u16| {
+            if d < *t {
+                *t = d;
+            }
+        };
+        for row in self.depth[start..end].chunks_mut(size) {
+            match &mut row[..w] {
+                [a, b] => {
+                    keep_nearer(a);
+                    keep_nearer(b);
                 }
+                [a, b, c] => {
+                    keep_nearer(a);
+                    keep_nearer(b);
+                    keep_nearer(c);
+                }
+                texels => texels.iter_mut().for_each(keep_nearer),
             }
         }
     }
