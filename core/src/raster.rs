@@ -150,6 +150,36 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
         let (x0, x1) = (x0.max(0), x1.min(W as i32));
         let (y0, y1) = (y0.max(0), y1.min(H as i32));
         let mut written = 0;
+        if !round {
+            // A square: its rows, most of them one or two pixels long (a splat of 2 px or less
+            // covering two pixel centres), which the match writes without a loop.
+            if x1 <= x0 {
+                return 0;
+            }
+            let (xa, xb) = (x0 as usize, x1 as usize);
+            for y in y0..y1 {
+                let (crow, drow) = (
+                    &mut self.color[y as usize][xa..xb],
+                    &mut self.depth[y as usize][xa..xb],
+                );
+                let mut put = |c: &mut u16, d: &mut u16| {
+                    if s.depth < *d {
+                        *d = s.depth;
+                        *c = s.color;
+                        written += 1;
+                    }
+                };
+                match (crow, drow) {
+                    ([c], [d]) => put(c, d),
+                    ([c0, c1], [d0, d1]) => {
+                        put(c0, d0);
+                        put(c1, d1);
+                    }
+                    (crow, drow) => crow.iter_mut().zip(drow).for_each(|(c, d)| put(c, d)),
+                }
+            }
+            return written;
+        }
         let r2 = i64::from(half) * i64::from(half);
         for y in y0..y1 {
             let (crow, drow) = (&mut self.color[y as usize], &mut self.depth[y as usize]);
