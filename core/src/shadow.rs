@@ -54,7 +54,7 @@
 
 use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
-use crate::normal::{NORMALS_Q14, NORMAL_COUNT};
+use crate::normal::{NORMALS_Q14, NORMAL_BOXES_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
 use crate::tg::frame::{round_to_i32, slot_dots, SlotTable, TgFrame, MAX_SLOTS, SLOT_TABLE};
 use crate::tg::read::{Header, TriGrid};
@@ -561,14 +561,30 @@ impl LightFrame {
             return;
         }
         self.to_light_q14 = l;
-        for (f, n) in self.derived.facing.iter_mut().zip(NORMALS_Q14.iter()) {
-            let cos =
-                (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2]) >> 14;
-            *f = if cos <= 0 {
-                0
-            } else {
-                1 + (cos >> 8).min(64) as u8
-            };
+        let facing = self.derived.facing.chunks_exact_mut(32);
+        for ((f, n), b) in facing
+            .zip(NORMALS_Q14.chunks_exact(32))
+            .zip(&NORMAL_BOXES_Q14)
+        {
+            // The greatest n · l over the 32 codes' box: below 2¹⁴ (a cosine that floors to 0)
+            // every one of them faces away from the light (half the sphere), without its codes.
+            let hi: i32 = (0..3)
+                .map(|a| (i32::from(b[a]) * l[a]).max(i32::from(b[3 + a]) * l[a]))
+                .sum();
+            if hi < 1 << 14 {
+                f.fill(0);
+                continue;
+            }
+            for (f, n) in f.iter_mut().zip(n) {
+                let cos =
+                    (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2])
+                        >> 14;
+                *f = if cos <= 0 {
+                    0
+                } else {
+                    1 + (cos >> 8).min(64) as u8
+                };
+            }
         }
     }
 
@@ -1097,6 +1113,33 @@ pub fn render_tg_in_scene<S: SplatSink>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn light_facing_table_matches_the_formula_per_code() {
+        let mut seed = 0x2545_f491_u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut light = LightFrame::UNSET;
+        for _ in 0..100 {
+            let v: [f64; 3] = core::array::from_fn(|_| next());
+            let len = libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            let l = v.map(|c| libm::round(c / len * 16384.0) as i32);
+            light.set_to_light(l);
+            for (code, n) in NORMALS_Q14.iter().enumerate() {
+                let cos =
+                    (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2])
+                        >> 14;
+                let want = if cos <= 0 {
+                    0
+                } else {
+                    1 + (cos >> 8).min(64) as u8
+                };
+                assert_eq!(light.derived.facing[code], want, "code {code}, l {l:?}");
+            }
+        }
+    }
 
     /// A depth-6 tri-grid header over the cube [-1, 1]³.
     fn header() -> Header {

@@ -436,7 +436,10 @@ fn profile(fw: &Firmware<'_>, index: usize, what: &str, counter: &Counter) -> Re
         "\nprofile of {what} ({}), traversal phase: {total} instructions",
         fw.name()
     );
-    for (heading, table, rows) in [("self", by_fn, 200), ("inclusive of inlined", inclusive, 90)] {
+    for (heading, table, rows) in [
+        ("self", by_fn, 200),
+        ("inclusive of inlined", inclusive, 90),
+    ] {
         println!("{heading}:");
         let mut v: Vec<_> = table.into_iter().collect();
         v.sort_by_key(|e| std::cmp::Reverse(e.1));
