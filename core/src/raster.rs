@@ -212,7 +212,10 @@ pub(crate) fn fill(buf: &mut [u16], v: u16) {
     // the slice as words is sound; `align_to_mut` keeps the ends that are not aligned as `u16`s.
     let (head, body, tail) = unsafe { buf.align_to_mut::<[u32; 8]>() };
     head.fill(v);
-    body.fill([u32::from(v) * 0x1_0001; 8]);
+    // The value through `black_box`: a constant with one repeated byte (0, `u16::MAX`) would
+    // otherwise become a call to the `memset` of compiler-builtins, which stores a word per loop.
+    let word = core::hint::black_box(u32::from(v) * 0x1_0001);
+    body.fill([word; 8]);
     tail.fill(v);
 }
 
