@@ -137,7 +137,7 @@ impl<'a> ShadowMap<'a> {
             return;
         }
         // One slice from the first texel to the last (one bounds check), then the rows: nearly
-        // every footprint is 2 or 3 texels wide, which the match writes without a loop.
+        // every footprint is 1 to 3 texels wide, which the match writes without a loop.
         let (size, w) = (self.size, (ub - ua) as usize + 1);
         let start = va as usize * size + ua as usize;
         let end = vb as usize * size + ub as usize + 1;
@@ -148,6 +148,7 @@ impl<'a> ShadowMap<'a> {
         };
         for row in self.depth[start..end].chunks_mut(size) {
             match &mut row[..w] {
+                [a] => keep_nearer(a),
                 [a, b] => {
                     keep_nearer(a);
                     keep_nearer(b);
