@@ -215,6 +215,14 @@ enum ReportKind {
         /// The target of the ARM counts quoted (default thumbv7m-none-eabi).
         #[arg(long, value_name = "TRIPLE")]
         arm_target: Option<String>,
+        /// A further target whose counts in the --arm files are listed beside the quoted one
+        /// (repeatable; e.g. thumbv6m-none-eabi, the Cortex-M0+ device build).
+        #[arg(long, value_name = "TRIPLE")]
+        arm_also: Vec<String>,
+        /// A results.csv of an earlier run: its tri-grid frames drawn as their own curve and
+        /// compared frame by frame with this run's.
+        #[arg(long, value_name = "FILE")]
+        baseline: Option<PathBuf>,
     },
     /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
     Paper {
@@ -415,6 +423,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     repeats,
                     arm,
                     arm_target,
+                    arm_also,
+                    baseline,
                 },
         }) => {
             let opts = report::error_vs_time::Options {
@@ -423,6 +433,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 repeats,
                 arm,
                 arm_target,
+                arm_also,
+                baseline,
             };
             for path in report::error_vs_time::run(&scene, &out, &opts)? {
                 println!("{}", path.display());

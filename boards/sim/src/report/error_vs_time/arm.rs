@@ -69,6 +69,23 @@ impl ArmCounts {
     /// A file that cannot be read, a line that is not an `arm-bench` frame, or no frame of `target`
     /// in a file; each names the file and line.
     pub fn load(files: &[PathBuf], target: &str) -> Result<Self> {
+        Self::read(files, target, true)
+    }
+
+    /// [`ArmCounts::load`] for a target that only some of `files` were run for (a second device
+    /// listed beside the quoted one): files without it are skipped.
+    ///
+    /// # Errors
+    /// As [`ArmCounts::load`], and when no file has a frame of `target`.
+    pub fn load_where_present(files: &[PathBuf], target: &str) -> Result<Self> {
+        let out = Self::read(files, target, false)?;
+        if out.is_empty() {
+            bail!("no frame of target {target} in the ARM count files (run arm-bench with --target {target})");
+        }
+        Ok(out)
+    }
+
+    fn read(files: &[PathBuf], target: &str, every_file: bool) -> Result<Self> {
         let mut out = Self {
             target: target.to_owned(),
             files: files.to_vec(),
@@ -116,7 +133,7 @@ impl ArmCounts {
                     })
                     .or_insert(l.instructions);
             }
-            if kept == 0 {
+            if kept == 0 && every_file {
                 bail!(
                     "{}: no frame of target {target} (pass --arm-target, or run arm-bench with \
                      --target {target})",

@@ -216,6 +216,10 @@ pub struct Row {
     pub arm_instructions: Option<u64>,
     /// What shadowed frames were compared with (`unshadowed` or `ray-cast`); `-` without shadows.
     pub reference: String,
+    /// The CRC-32 of the baked file the method drew (not in `results.csv`): what ARM counts of
+    /// other targets are matched by ([`arm_section`]).
+    #[serde(skip)]
+    pub file_crc: Option<u32>,
 }
 
 /// Name of a shadow mode in the report.
@@ -321,6 +325,7 @@ pub fn measure(
                             } else {
                                 reference.shadows.name().to_owned()
                             },
+                            file_crc: method.file_crc(),
                         });
                     }
                 }
@@ -630,7 +635,16 @@ pub struct Options {
     pub arm: Vec<PathBuf>,
     /// The target whose counts are quoted (default [`arm::DEFAULT_TARGET`]).
     pub arm_target: Option<String>,
+    /// Further targets whose counts in the `arm` files are listed beside the quoted one (the
+    /// device build for a Cortex-M0+, `thumbv6m-none-eabi`).
+    pub arm_also: Vec<String>,
+    /// A `results.csv` of an earlier run of this report: its tri-grid frames are plotted as their
+    /// own curve ([`BASELINE_METHOD`]) and compared frame by frame in `results.md`.
+    pub baseline: Option<PathBuf>,
 }
+
+/// The method name of a baseline run's tri-grid frames on the plots.
+pub const BASELINE_METHOD: &str = "trigrid (baseline)";
 
 /// The files the report writes, by name.
 pub struct Outputs {
@@ -694,6 +708,11 @@ pub fn run(input: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>>
             opts.arm_target.as_deref().unwrap_or(arm::DEFAULT_TARGET),
         )?
     };
+    let also = opts
+        .arm_also
+        .iter()
+        .map(|t| arm::ArmCounts::load_where_present(&opts.arm, t))
+        .collect::<Result<Vec<_>>>()?;
     let name = input
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -718,17 +737,42 @@ pub fn run(input: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>>
     if let Some(t) = &opts.arm_target {
         let _ = write!(command, " --arm-target {t}");
     }
+    for t in &opts.arm_also {
+        let _ = write!(command, " --arm-also {t}");
+    }
+    let baseline = match &opts.baseline {
+        Some(path) => {
+            let _ = write!(command, " --baseline {}", path.display());
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("--baseline {}: cannot read", path.display()))?;
+            let rows =
+                parse_csv(&text).with_context(|| format!("--baseline {}", path.display()))?;
+            let rows: Vec<Row> = rows
+                .into_iter()
+                .filter(|r| r.method == "trigrid")
+                .map(|r| Row {
+                    method: BASELINE_METHOD.to_owned(),
+                    ..r
+                })
+                .collect();
+            if rows.is_empty() {
+                bail!("--baseline {}: no tri-grid frames in it", path.display());
+            }
+            rows
+        }
+        None => Vec::new(),
+    };
     let outputs = if is_scene {
         let bakes = scene::bake_scene_file(input, depth)?;
         let subject = scene::scene_subject(&name, &bakes)?;
-        measure_and_write(subject, &sweep, &arm, &command)?
+        measure_and_write(subject, &sweep, (&arm, &also), &baseline, &command)?
     } else {
         let depth = depth.expect("a mesh's depth has a default");
         let mesh = crate::ply::load_mesh(input)?;
         let bakes =
             MeshBakes::bake(&mesh, depth).with_context(|| format!("{}: bake", input.display()))?;
         let subject = mesh_subject(&name, &mesh, &bakes)?;
-        measure_and_write(subject, &sweep, &arm, &command)?
+        measure_and_write(subject, &sweep, (&arm, &also), &baseline, &command)?
     };
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create folder {}", out_dir.display()))?;
@@ -745,7 +789,8 @@ pub fn run(input: &Path, out_dir: &Path, opts: &Options) -> Result<Vec<PathBuf>>
 fn measure_and_write(
     mut subject: Subject<'_>,
     sweep: &Sweep,
-    arm: &arm::ArmCounts,
+    (arm, also): (&arm::ArmCounts, &[arm::ArmCounts]),
+    baseline: &[Row],
     command: &str,
 ) -> Result<Outputs> {
     let crcs: Vec<(String, u32)> = subject
@@ -757,7 +802,7 @@ fn measure_and_write(
     let rows = measure(&mut subject, sweep, arm, |line| {
         eprintln!("measuring {line}");
     })?;
-    outputs(&subject, sweep, &rows, arm, command)
+    outputs(&subject, sweep, &rows, baseline, (arm, also), command)
 }
 
 /// Every output file, in memory.
@@ -767,11 +812,15 @@ fn measure_and_write(
 pub fn outputs(
     subject: &Subject<'_>,
     sweep: &Sweep,
-    rows: &[Row],
-    arm: &arm::ArmCounts,
+    measured: &[Row],
+    baseline: &[Row],
+    (arm, also): (&arm::ArmCounts, &[arm::ArmCounts]),
     command: &str,
 ) -> Result<Outputs> {
-    let mut files = vec![("results.csv".to_owned(), csv(rows).into_bytes())];
+    let mut files = vec![("results.csv".to_owned(), csv(measured).into_bytes())];
+    // The plots show the baseline's tri-grid beside this run's methods; results.csv has this run.
+    let plotted: Vec<Row> = measured.iter().chain(baseline).cloned().collect();
+    let rows = &plotted[..];
     let mut plots = Vec::new();
     let own = shadows_name(subject.shadows);
     for shadows in modes_plotted(subject) {
@@ -817,7 +866,7 @@ pub fn outputs(
     }
     files.push((
         "results.md".to_owned(),
-        markdown(subject, sweep, rows, arm, command).into_bytes(),
+        markdown(subject, sweep, measured, baseline, (arm, also), command).into_bytes(),
     ));
     files.extend(plots);
     Ok(Outputs { files })
@@ -1031,7 +1080,8 @@ fn markdown(
     subject: &Subject<'_>,
     sweep: &Sweep,
     rows: &[Row],
-    arm: &arm::ArmCounts,
+    baseline: &[Row],
+    (arm, also): (&arm::ArmCounts, &[arm::ArmCounts]),
     command: &str,
 ) -> String {
     let mut md = format!("# Error against run time: {}\n\n", subject.name);
@@ -1101,6 +1151,12 @@ fn markdown(
     }
     if !arm.is_empty() {
         md.push_str(&arm_section(subject, rows));
+        for other in also {
+            md.push_str(&other_target_section(subject, rows, other));
+        }
+    }
+    if !baseline.is_empty() {
+        md.push_str(&baseline_section(rows, baseline));
     }
     for (view, _) in &subject.views {
         let _ = writeln!(md, "\n## View `{view}`\n");
@@ -1143,6 +1199,152 @@ fn markdown(
 
 /// `## On ARM`: the frames with an instruction count, in the subject's own shadows, per view: cost,
 /// frames per second at 200 MHz, PSNR and its loss against the same method's 1 px frame, and the
+/// The frames of `rows` that have a count for `other` (a second target, as `arm-bench` ran it on
+/// the same baked file), beside the quoted target's count.
+fn other_target_section(subject: &Subject<'_>, rows: &[Row], other: &arm::ArmCounts) -> String {
+    let own = shadows_name(subject.shadows);
+    let mut md = format!(
+        "\n### The same frames on {}\n\nShadows {own}, square splats: instructions per frame \
+         on {} beside the quoted target's.\n\n| view | method | cutoff px | PSNR dB | {} | \
+         quoted target | fps at 200 MHz |\n|---|---|---|---|---|---|---|\n",
+        other.target(),
+        other.target(),
+        other.target()
+    );
+    for r in rows
+        .iter()
+        .filter(|r| r.shadows == own && r.kernel == "square")
+    {
+        let (Some(crc), Some(cutoff)) = (r.file_crc, r.cutoff_px) else {
+            continue;
+        };
+        let Some(n) = other.get(crc, &r.view, cutoff, own, &r.kernel) else {
+            continue;
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {cutoff} | {:.2} | {:.2} M | {} | {:.2} |",
+            r.view,
+            r.method,
+            r.psnr_db,
+            n as f64 / 1e6,
+            r.arm_instructions
+                .map_or("—".to_owned(), |q| format!("{:.2} M", q as f64 / 1e6)),
+            200e6 / n as f64
+        );
+    }
+    md
+}
+
+/// The tri-grid frames of this run beside the baseline's with the same view, shadows, kernel and
+/// cutoff: PSNR, nodes and ARM instructions, before and after.
+fn baseline_section(rows: &[Row], baseline: &[Row]) -> String {
+    let mut md = format!(
+        "\n## Against the baseline\n\nThe tri-grid frames of this run beside those of the \
+         baseline run (`--baseline`; `{BASELINE_METHOD}` on the plots), square splats.\n\n\
+         | view | shadows | cutoff px | PSNR dB before | after | nodes before | after | ARM \
+         instructions before | after |\n|---|---|---|---|---|---|---|---|---|\n"
+    );
+    let m = |n: Option<u64>| n.map_or("—".to_owned(), |n| format!("{:.2} M", n as f64 / 1e6));
+    for r in rows
+        .iter()
+        .filter(|r| r.method == "trigrid" && r.kernel == "square")
+    {
+        let Some(b) = baseline.iter().find(|b| {
+            b.view == r.view
+                && b.shadows == r.shadows
+                && b.kernel == r.kernel
+                && b.cutoff_px == r.cutoff_px
+        }) else {
+            continue;
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.2} | {:.2} | {} | {} | {} | {} |",
+            r.view,
+            r.shadows,
+            r.cutoff_px.map_or("—".to_owned(), |c| c.to_string()),
+            b.psnr_db,
+            r.psnr_db,
+            b.nodes_visited,
+            r.nodes_visited,
+            m(b.arm_instructions),
+            m(r.arm_instructions)
+        );
+    }
+    md
+}
+
+/// The rows of a `results.csv` this report wrote ([`csv`]), read back.
+///
+/// # Errors
+/// When the header is not [`CSV_HEADER`] or a line does not parse.
+pub fn parse_csv(text: &str) -> Result<Vec<Row>> {
+    let mut lines = text.lines();
+    if lines.next() != Some(CSV_HEADER) {
+        bail!("not a results.csv of this report (its first line is not `{CSV_HEADER}`)");
+    }
+    lines
+        .enumerate()
+        .filter(|(_, l)| !l.is_empty())
+        .map(|(i, l)| parse_csv_line(l).with_context(|| format!("line {}", i + 2)))
+        .collect()
+}
+
+/// One line of `results.csv`: 16 fields, of which only `detail` is quoted.
+fn parse_csv_line(line: &str) -> Result<Row> {
+    let mut fields = Vec::with_capacity(16);
+    let (mut field, mut quoted) = (String::new(), false);
+    for c in line.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            ',' if !quoted => fields.push(std::mem::take(&mut field)),
+            c => field.push(c),
+        }
+    }
+    fields.push(field);
+    if fields.len() != 16 || quoted {
+        bail!("{} fields, want 16", fields.len());
+    }
+    let num = |i: usize| -> Result<f64> {
+        fields[i]
+            .parse()
+            .with_context(|| format!("field {}: `{}` is not a number", i + 1, fields[i]))
+    };
+    let opt = |i: usize| -> Result<Option<u64>> {
+        if fields[i].is_empty() {
+            Ok(None)
+        } else {
+            Ok(Some(fields[i].parse().with_context(|| {
+                format!("field {}: `{}` is not a count", i + 1, fields[i])
+            })?))
+        }
+    };
+    Ok(Row {
+        scene: fields[0].clone(),
+        view: fields[1].clone(),
+        method: fields[2].clone(),
+        detail: fields[3].clone(),
+        kernel: fields[4].clone(),
+        shadows: fields[5].clone(),
+        cutoff_px: if fields[6].is_empty() {
+            None
+        } else {
+            Some(num(6)? as f32)
+        },
+        psnr_db: num(7)?,
+        coverage_mismatch: num(8)?,
+        holes: num(9)?,
+        ms: num(10)?,
+        wall_ms: num(11)?,
+        nodes_visited: opt(12)?.unwrap_or(0) as u32,
+        splats: opt(13)?.unwrap_or(0) as u32,
+        arm_instructions: opt(14)?,
+        reference: fields[15].clone(),
+        file_crc: None,
+    })
+}
+
 /// cheapest frame within 1 dB of 1 px.
 fn arm_section(subject: &Subject<'_>, rows: &[Row]) -> String {
     let own = shadows_name(subject.shadows);
@@ -1294,6 +1496,7 @@ mod tests {
             splats: 10,
             arm_instructions: None,
             reference: "-".into(),
+            file_crc: None,
         };
         let text = csv(&[row]);
         let mut lines = text.lines();
@@ -1301,5 +1504,34 @@ mod tests {
         let line = lines.next().unwrap();
         // The quoted detail holds one comma.
         assert_eq!(line.split(',').count(), header + 1, "{line}");
+    }
+
+    #[test]
+    fn results_csv_reads_back_as_it_was_written() {
+        let row = |cutoff_px, arm_instructions| Row {
+            scene: "big.toml".into(),
+            view: "std".into(),
+            method: "trigrid".into(),
+            detail: "ρ=3 pack of 6 objects, depth ≤ 6".into(),
+            kernel: "square".into(),
+            shadows: "one-pass".into(),
+            cutoff_px,
+            psnr_db: 24.3827,
+            coverage_mismatch: 0.012_5,
+            holes: 0.000_391,
+            ms: 3.3113,
+            wall_ms: 4.25,
+            nodes_visited: 104_549,
+            splats: 67_168,
+            arm_instructions,
+            reference: "ray-cast".into(),
+            file_crc: None,
+        };
+        let rows = vec![row(Some(4.0), Some(39_954_567)), row(None, None)];
+        assert_eq!(parse_csv(&csv(&rows)).unwrap(), rows);
+        assert!(parse_csv("scene,view\nx,y\n").is_err());
+        let bad = csv(&rows).replace("104549", "many");
+        let err = format!("{:#}", parse_csv(&bad).unwrap_err());
+        assert!(err.contains("line 2") && err.contains("many"), "{err}");
     }
 }
