@@ -40,8 +40,9 @@ fn breadth_first(tree: &Tree<'_>) -> Vec<(u16, u8, u16, u8)> {
     out
 }
 
-/// The same file with every multi-byte field little-endian, as QSplat 1.0 wrote on builds that did
-/// not swap bytes.
+/// The same file little-endian, as a QSplat 1.0 build that did not swap bytes would lay it out: the
+/// header fields and the group pointers swapped, the node records as they are (always big-endian:
+/// the original wrote them byte by byte).
 fn to_little_endian(q: &QSplat<'_>) -> Vec<u8> {
     let mut out = q.bytes().to_vec();
     let swap = |out: &mut Vec<u8>, at: usize, n: usize| out[at..at + n].reverse();
@@ -66,11 +67,7 @@ fn to_little_endian(q: &QSplat<'_>) -> Vec<u8> {
                 if let Some(p) = g.pointer {
                     swap(&mut out, at + p as usize, 4);
                 }
-                for (n_at, _, child) in t.children(g) {
-                    swap(&mut out, at + n_at as usize + 2, 2);
-                    if t.has_color() {
-                        swap(&mut out, at + n_at as usize + 4, 2);
-                    }
+                for (_, _, child) in t.children(g) {
                     queue.extend(child);
                 }
                 k += 1;
@@ -308,4 +305,74 @@ fn frame_rate_control_holds_qsplat_frames_through_a_100x_cost_jump() {
             frames[0].1, frames[24].1
         );
     }
+}
+
+/// The pixel box `[x0, y0, x1, y1]` of the splat centres of a std-view frame of `file`, framed by
+/// its own bounds as every caller frames a `.qs`.
+fn drawn_box(file: &QSplat<'_>) -> [f64; 4] {
+    struct Extent([f64; 4]);
+    impl SplatSink for Extent {
+        fn splat(&mut self, s: &SampleSplat) {
+            let (x, y) = (f64::from(s.x_q8) / 256.0, f64::from(s.y_q8) / 256.0);
+            if (0.0..240.0).contains(&x) && (0.0..320.0).contains(&y) {
+                let b = &mut self.0;
+                *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+            }
+        }
+    }
+    let camera = Camera::orbit(
+        Sphere::from_bounds(file.bounds()),
+        STANDARD_VIEWS[0].1,
+        45.0,
+    );
+    let frame = QsFrame::new(
+        file,
+        &Placement::IDENTITY,
+        &camera,
+        &QsRenderOptions::default(),
+    )
+    .unwrap();
+    let mut e = Extent([f64::MAX, f64::MAX, f64::MIN, f64::MIN]);
+    render_qs(file, &frame, &mut e);
+    e.0
+}
+
+#[test]
+fn a_file_without_the_bounds_comment_is_framed_like_one_with_it() {
+    let Some(q) = bunny() else {
+        return;
+    };
+    let with = QSplat::open(&q.bytes).unwrap();
+    assert!(
+        with.comments().count() == 1,
+        "the writer puts one comment first"
+    );
+    // The same file as QSplat 1.0's maker writes it: no comment fragment (the first one).
+    let comment_len = u32::from_be_bytes(q.bytes[8..12].try_into().unwrap()) as usize;
+    let bare = &q.bytes[comment_len..];
+    let without = QSplat::open(bare).unwrap();
+    assert_eq!(without.comments().count(), 0);
+    assert_eq!(without.counts().leaves, with.counts().leaves);
+    let (a, b) = (drawn_box(&with), drawn_box(&without));
+    let (wa, ha) = (a[2] - a[0], a[3] - a[1]);
+    let (wb, hb) = (b[2] - b[0], b[3] - b[1]);
+    eprintln!("drawn box with the comment {wa:.1} × {ha:.1} px, without {wb:.1} × {hb:.1} px");
+    for (x, y, what) in [(wa, wb, "width"), (ha, hb, "height")] {
+        assert!(
+            (y / x - 1.0).abs() < 0.10,
+            "drawn {what}: {y:.1} px without the comment against {x:.1} px with it ({a:?}, {b:?})"
+        );
+    }
+    // The root sphere alone frames it at about half size: the old behaviour, which the test catches.
+    let root = without.tree_bounds(0);
+    let d = |b: [[f32; 3]; 2]| {
+        (0..3)
+            .map(|k| f64::from(b[1][k] - b[0][k]).powi(2))
+            .sum::<f64>()
+    };
+    assert!(
+        d(root) > 2.0 * d(with.bounds()),
+        "root box {root:?}, mesh box {:?}",
+        with.bounds()
+    );
 }

@@ -337,7 +337,9 @@ impl<'a> Tree<'a> {
         let (Some(b0), Some(b1)) = (self.bytes.get(at), self.bytes.get(at + 1)) else {
             return Node::default();
         };
-        let nc = self.order.u16(self.bytes, at + 2).unwrap_or(0);
+        // Node records are big-endian in every file: QSplat 1.0 wrote them byte by byte and swapped
+        // only the header fields and the pointers (FORMAT.md, "Byte order").
+        let nc = ByteOrder::Big.u16(self.bytes, at + 2).unwrap_or(0);
         let code = b1 & 3;
         Node {
             sphere: u16::from(*b0) << 5 | u16::from(b1 >> 3),
@@ -346,7 +348,7 @@ impl<'a> Tree<'a> {
             normal: nc >> 2,
             cone: (nc & 3) as u8,
             color: if self.color {
-                Some(self.order.u16(self.bytes, at + 4).unwrap_or(0))
+                Some(ByteOrder::Big.u16(self.bytes, at + 4).unwrap_or(0))
             } else {
                 None
             },
@@ -453,6 +455,8 @@ pub struct QSplat<'a> {
     bytes: &'a [u8],
     order: ByteOrder,
     counts: QsCounts,
+    /// [`QSplat::bounds`], found once at open.
+    bounds: [[f32; 3]; 2],
 }
 
 /// Iterator over a file's fragments.
@@ -702,11 +706,17 @@ impl<'a> QSplat<'a> {
         if counts.trees == 0 {
             return Err(QsError::NoTree);
         }
-        Ok(Self {
+        let mut file = Self {
             bytes,
             order,
             counts,
-        })
+            bounds: [[0.0; 3]; 2],
+        };
+        file.bounds = file
+            .comments()
+            .find_map(parse_bounds)
+            .unwrap_or_else(|| file.tree_bounds(BOUNDS_DEPTH));
+        Ok(file)
     }
 
     /// The file's bytes.
@@ -748,26 +758,67 @@ impl<'a> QSplat<'a> {
     }
     /// The model's bounding box, `[min, max]` in model units: the one pocketsplat's writer records in
     /// its comment fragment (`pocketsplat bounds=…`, the mesh's box, so that views of a `.qs` and a
-    /// `.tg` of the same mesh frame it identically), else the box around every root sphere.
+    /// `.tg` of the same mesh frame it identically), else the box around the decoded spheres of the
+    /// trees down to [`BOUNDS_DEPTH`] levels (their leaves in most files). Found once, at open: the
+    /// root sphere alone is about twice the model's half-diagonal, so a file without the comment
+    /// (every file QSplat 1.0 made) would be drawn at half size.
     pub fn bounds(&self) -> [[f32; 3]; 2] {
-        self.comments()
-            .find_map(parse_bounds)
-            .unwrap_or_else(|| self.root_bounds())
+        self.bounds
     }
 
-    /// The box around every tree's root sphere.
+    /// The box around every tree's decoded spheres at depth `max_depth` (or at their leaves, where
+    /// a tree ends first; depth 0: the root spheres): the spheres enclose their subtrees, so the box
+    /// encloses the model.
     #[allow(clippy::float_arithmetic)] // setup, once per file
-    pub fn root_bounds(&self) -> [[f32; 3]; 2] {
+    pub fn tree_bounds(&self, max_depth: usize) -> [[f32; 3]; 2] {
         let mut b = [[f32::MAX; 3], [f32::MIN; 3]];
+        let mut add = |c: [f32; 3], r: f32| {
+            for k in 0..3 {
+                b[0][k] = b[0][k].min(c[k] - r);
+                b[1][k] = b[1][k].max(c[k] + r);
+            }
+        };
+        // Depth first with a fixed stack: at most 4 siblings wait per level.
+        let mut stack = [(Group::default(), [0f32; 3], 0f32, 0usize); 4 * (BOUNDS_DEPTH + 1)];
         for t in self.trees() {
-            for (k, c) in t.center.iter().enumerate() {
-                b[0][k] = b[0][k].min(c - t.radius);
-                b[1][k] = b[1][k].max(c + t.radius);
+            if max_depth == 0 {
+                add(t.center, t.radius);
+                continue;
+            }
+            stack[0] = (t.root_group(), t.center, t.radius, 1);
+            let mut n = 1;
+            while n > 0 {
+                n -= 1;
+                let (g, pc, pr, depth) = stack[n];
+                for (_, node, child) in t.children(g) {
+                    let Some(e) = super::table::sphere(node.sphere) else {
+                        continue;
+                    };
+                    let k = pr / 13.0;
+                    let c = [
+                        pc[0] + k * f32::from(e.a),
+                        pc[1] + k * f32::from(e.b),
+                        pc[2] + k * f32::from(e.c),
+                    ];
+                    let r = k * f32::from(e.s);
+                    match child {
+                        Some(g) if depth < max_depth.min(BOUNDS_DEPTH) && n < stack.len() => {
+                            stack[n] = (g, c, r, depth + 1);
+                            n += 1;
+                        }
+                        _ => add(c, r),
+                    }
+                }
             }
         }
         b
     }
 }
+
+/// Levels of the trees [`QSplat::bounds`] decodes for a file without pocketsplat's bounds comment:
+/// 8 (at most 4⁸ spheres per tree, the leaves of most scans), bounded so that opening a big file on
+/// a device stays cheap.
+pub const BOUNDS_DEPTH: usize = 8;
 
 /// The bounding box in a comment `pocketsplat … bounds=x0,y0,z0,x1,y1,z1 …`, when it is one and
 /// every number is finite with min ≤ max.
@@ -816,12 +867,9 @@ mod tests {
             color: None,
         }
         .to_bytes();
-        let nc = u16::from_be_bytes([b[2], b[3]]);
-        let nc = match order {
-            ByteOrder::Big => nc.to_be_bytes(),
-            ByteOrder::Little => nc.to_le_bytes(),
-        };
-        [b[0], b[1], nc[0], nc[1]]
+        // Node records are big-endian whatever the file's order (FORMAT.md).
+        let _ = order;
+        [b[0], b[1], b[2], b[3]]
     }
 
     fn u32b(order: ByteOrder, v: u32) -> [u8; 4] {
@@ -915,8 +963,15 @@ mod tests {
             assert_eq!((tree.center(), tree.radius()), ([1.0, 2.0, 3.0], 0.5));
             assert_eq!(tree.offset(), 36);
             assert_eq!(breadth_first(&tree), want);
-            // No pocketsplat comment: framed by the root sphere.
-            assert_eq!(q.bounds(), [[0.5, 1.5, 2.5], [1.5, 2.5, 3.5]]);
+            // No pocketsplat comment: framed by the decoded leaves, inside the root sphere's box.
+            let root = [[0.5, 1.5, 2.5], [1.5, 2.5, 3.5]];
+            assert_eq!(q.tree_bounds(0), root);
+            let b = q.bounds();
+            assert_eq!(b, q.tree_bounds(BOUNDS_DEPTH));
+            assert!(
+                (0..3).all(|k| root[0][k] <= b[0][k] && b[0][k] < b[1][k] && b[1][k] <= root[1][k])
+            );
+            assert!(b != root, "{b:?}");
         }
     }
 

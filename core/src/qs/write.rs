@@ -601,8 +601,10 @@ fn layout(
     }
     let has_pointer = |p: u32| {
         let kids = &nodes[p as usize].children;
-        // QSplat 1.0's quirk: the root group has a pointer unless the model has exactly 4 leaves.
-        kids.iter().any(|&c| is_interior(c)) || (p == root && leaves != 4)
+        // The root group always has one: QSplat 1.0's writer left it out for a model of exactly 4
+        // leaves, but its reader always reads one (and loses a leaf without it). The reader here
+        // takes both forms.
+        kids.iter().any(|&c| is_interior(c)) || p == root
     };
     // Offsets within the fragment of each group (of its pointer, when it has one).
     let mut group_at = std::vec![0u64; nodes.len()];
@@ -847,7 +849,30 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn tiny_models_copy_the_root_pointer_quirk() {
+    fn a_unit_square_has_its_root_pointer() {
+        // Two triangles, four leaves: the 4-leaf root that QSplat 1.0's writer left without a
+        // pointer. 40 header bytes + 4 for the pointer + 4 nodes of 4 bytes.
+        let m = TriMesh {
+            positions: std::vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0]
+            ],
+            triangles: std::vec![[0, 1, 2], [0, 2, 3]],
+            ..TriMesh::default()
+        };
+        let q = bake_qs(&m, &QsBakeOptions::default()).unwrap();
+        let file = QSplat::open(&q.bytes).unwrap();
+        assert_eq!(file.counts().leaves, 4);
+        let tree = file.trees().next().unwrap();
+        assert_eq!(tree.bytes().len(), 60);
+        assert!(tree.root_group().pointer.is_some());
+        assert_eq!(tree.children(tree.root_group()).count(), 4);
+    }
+
+    #[test]
+    fn tiny_models_always_have_a_root_pointer() {
         // 2, 3, 4, 5 usable vertices: a fan of triangles.
         for n in 2..=5u32 {
             let mut m = TriMesh::default();
@@ -864,11 +889,7 @@ pub(crate) mod tests {
             let leaves = file.counts().leaves;
             let tree = file.trees().next().unwrap();
             assert_eq!(leaves, q.stats.leaves);
-            assert_eq!(
-                tree.root_group().pointer.is_some(),
-                leaves != 4,
-                "{leaves} leaves"
-            );
+            assert!(tree.root_group().pointer.is_some(), "{leaves} leaves");
         }
     }
 
