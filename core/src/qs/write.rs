@@ -306,12 +306,20 @@ impl Builder<'_> {
 
     /// Builds the subtree over `ids` (at least 2 points) at tree depth `depth`; returns its node.
     fn build(&mut self, ids: &mut [u32], depth: u32) -> u32 {
+        if ids.len() <= 4 {
+            // Four points or fewer are one group of leaves (as QSplat 1.0's maker groups them):
+            // splitting them again only adds an interior node and a pointer.
+            let children = ids.iter().map(|&i| self.leaf(i, depth + 1)).collect();
+            return self.interior(children);
+        }
         // Two binary levels at a time: 2, 3 or 4 parts.
         let m = self.split(ids, depth);
         let (a, b) = ids.split_at_mut(m);
         let mut parts: Vec<&mut [u32]> = Vec::with_capacity(4);
         for half in [a, b] {
-            if half.len() >= 2 {
+            // A half of 3 or 4 points stays whole (one group of leaves below it); splitting it would
+            // take as many interior nodes or more. A half of 2 splits into two leaves.
+            if half.len() == 2 || half.len() > 4 {
                 let k = self.split(half, depth);
                 let (x, y) = half.split_at_mut(k);
                 parts.push(x);
