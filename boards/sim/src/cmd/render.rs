@@ -17,26 +17,7 @@ use crate::reference::{ShadowLight, ShadowRays};
 use crate::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 use crate::{image, ply, reference};
 
-/// Parses `A,B` or `A,B,C` numbers (views and lights).
-///
-/// # Errors
-/// When the text is not `n` comma-separated finite numbers.
-pub fn parse_numbers<const N: usize>(what: &str, text: &str) -> Result<[f64; N]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != N {
-        bail!("{what} {text:?}: expected {N} comma-separated numbers");
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p
-            .parse::<f64>()
-            .map_err(|e| anyhow::anyhow!("{what} {text:?}: {p:?} is not a number ({e})"))?;
-        if !o.is_finite() {
-            bail!("{what} {text:?}: {p:?} is not finite");
-        }
-    }
-    Ok(out)
-}
+pub use crate::args::parse_numbers;
 
 /// Parses a view: a standard view's name or `AZ,EL,DIST`.
 ///
@@ -123,8 +104,7 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
         return Ok(());
     }
     if is_tg(input)? {
-        let bytes = std::fs::read(input)
-            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", input.display()))?;
+        let bytes = crate::fsutil::read_file(input)?;
         let grid = TriGrid::open(&bytes, Verify::Full)
             .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
         let mut fb = FrameBuffers::new();
