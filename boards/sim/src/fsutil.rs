@@ -16,10 +16,38 @@ use crate::limits;
 /// # Errors
 /// When it cannot be opened or is not a regular file; the message names it.
 pub fn open_regular(path: &Path) -> Result<(File, u64)> {
+    // Looked at before it is opened: opening a FIFO blocks until something writes to it.
+    let meta =
+        std::fs::metadata(path).with_context(|| format!("cannot open {}", path.display()))?;
+    check_regular(path, &meta)?;
     let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
     let meta = file
         .metadata()
         .with_context(|| format!("cannot read {}", path.display()))?;
+    check_regular(path, &meta)?;
+    Ok((file, meta.len()))
+}
+
+/// Reads the first bytes of a regular file into `buf` (a magic number); returns how many.
+///
+/// # Errors
+/// As [`open_regular`], or when it cannot be read.
+pub fn read_magic(path: &Path, buf: &mut [u8]) -> Result<usize> {
+    let (file, _) = open_regular(path)?;
+    let mut n = 0;
+    let mut file = file.take(buf.len() as u64);
+    while n < buf.len() {
+        match file.read(buf.get_mut(n..).unwrap_or_default()) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+        }
+    }
+    Ok(n)
+}
+
+fn check_regular(path: &Path, meta: &std::fs::Metadata) -> Result<()> {
     if meta.is_dir() {
         bail!("cannot read {}: it is a folder", path.display());
     }
@@ -29,7 +57,7 @@ pub fn open_regular(path: &Path) -> Result<(File, u64)> {
             path.display()
         );
     }
-    Ok((file, meta.len()))
+    Ok(())
 }
 
 /// Reads a whole file of at most `max` bytes; `limit` names the limit in the error.

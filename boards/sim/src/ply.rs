@@ -211,8 +211,8 @@ pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError>
         file: file.clone(),
         error,
     };
-    let reader = File::open(path).map_err(io)?;
-    let meta = reader.metadata().map_err(io)?;
+    // Looked at before it is opened: opening a FIFO blocks until something writes to it.
+    let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
         return Err(io(io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -223,7 +223,9 @@ pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError>
             },
         )));
     }
-    load(&file, reader, limits, Some(meta.len()))
+    let reader = File::open(path).map_err(io)?;
+    let len = reader.metadata().map_err(io)?.len();
+    load(&file, reader, limits, Some(len))
 }
 
 /// Reads a PLY mesh from any reader, compressed or not, within the limits in force; `name` stands

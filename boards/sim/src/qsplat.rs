@@ -21,11 +21,8 @@ use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
 /// # Errors
 /// When the file cannot be opened.
 pub fn is_qs(path: &Path) -> Result<bool> {
-    use std::io::Read;
     let mut magic = [0u8; 8];
-    let mut f = std::fs::File::open(path)
-        .map_err(|e| anyhow::anyhow!("cannot open {}: {e}", path.display()))?;
-    let n = f.read(&mut magic).unwrap_or(0);
+    let n = crate::fsutil::read_magic(path, &mut magic)?;
     Ok((n == 8 && magic == MAGIC)
         || path
             .extension()

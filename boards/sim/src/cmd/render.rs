@@ -60,11 +60,8 @@ pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<Shadow
 
 /// Is this path a `.tg` file (by its magic), rather than a mesh?
 fn is_tg(path: &Path) -> Result<bool> {
-    use std::io::Read;
     let mut magic = [0u8; 4];
-    let mut f = std::fs::File::open(path)
-        .map_err(|e| anyhow::anyhow!("cannot open {}: {e}", path.display()))?;
-    let n = f.read(&mut magic).unwrap_or(0);
+    let n = crate::fsutil::read_magic(path, &mut magic)?;
     Ok(n == 4 && magic == pocketsplat_core::tg::MAGIC)
 }
 

@@ -27,11 +27,8 @@ pub fn is_scene_file(path: &Path) -> bool {
 /// Whether `path` is a scene pack (by its magic). A file that cannot be opened is not one (the
 /// caller's own reader then names the problem).
 pub fn is_pack(path: &Path) -> bool {
-    use std::io::Read;
     let mut magic = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok_and(|()| magic == MAGIC)
+    crate::fsutil::read_magic(path, &mut magic).is_ok_and(|n| n == 4 && magic == MAGIC)
 }
 
 /// Whether the command line names `flag` (`--flag VALUE` or `--flag=VALUE`): for a pack, options
