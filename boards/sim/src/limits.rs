@@ -11,6 +11,7 @@
 //! | `vertices` | 16M | vertices a PLY file may declare |
 //! | `triangles` | 32M | faces a PLY file may declare |
 //! | `bake` | 1G | memory a bake is estimated to need (`--force` bakes past it) |
+//! | `stream` | 8G | the file `render --stream` reads, as its header claims (its block table is kept whole) |
 //!
 //! The command line sets the limits once ([`set_current`]); library functions that take none read
 //! [`current`].
@@ -36,6 +37,8 @@ pub struct Limits {
     pub triangles: u64,
     /// `bake`: bytes of memory a bake is estimated to need.
     pub bake: u64,
+    /// `stream`: bytes of the file `render --stream` reads, as its header claims.
+    pub stream: u64,
 }
 
 impl Limits {
@@ -47,6 +50,7 @@ impl Limits {
         vertices: 16 << 20,
         triangles: 32 << 20,
         bake: 1 << 30,
+        stream: 8 << 30,
     };
 
     /// No limits at all (tests and reports that must not be refused).
@@ -57,16 +61,21 @@ impl Limits {
         vertices: u64::MAX,
         triangles: u64::MAX,
         bake: u64::MAX,
+        stream: u64::MAX,
     };
 
     /// Every limit by name, with what it bounds.
-    pub const NAMES: [(&'static str, &'static str); 6] = [
+    pub const NAMES: [(&'static str, &'static str); 7] = [
         ("file", "bytes of a file read whole (.tg, .qs, .pack, PNG)"),
         ("scene", "bytes of a scene file (.toml)"),
         ("ply", "bytes of a PLY file once decompressed"),
         ("vertices", "vertices a PLY file may declare"),
         ("triangles", "faces a PLY file may declare"),
         ("bake", "memory a bake is estimated to need"),
+        (
+            "stream",
+            "bytes of a file read with --stream, as its header claims",
+        ),
     ];
 
     fn slot(&mut self, name: &str) -> Option<&mut u64> {
@@ -77,6 +86,7 @@ impl Limits {
             "vertices" => &mut self.vertices,
             "triangles" => &mut self.triangles,
             "bake" => &mut self.bake,
+            "stream" => &mut self.stream,
             _ => return None,
         })
     }

@@ -19,7 +19,8 @@ use pocketsplat_sim::{cmd, report, scene};
 struct Cli {
     /// Raise or lower input limits, NAME=SIZE[,NAME=SIZE...] (K, M, G = 1024, 1024², 1024³):
     /// file=1G (a file read whole), scene=16M (a scene file), ply=2G (a PLY once decompressed),
-    /// vertices=16M and triangles=32M (declared in a PLY), bake=1G (a bake's estimated memory).
+    /// vertices=16M and triangles=32M (declared in a PLY), bake=1G (a bake's estimated memory),
+    /// stream=8G (a file read with --stream, as its header claims).
     #[arg(long, global = true, value_name = "NAME=SIZE")]
     limits: Vec<String>,
     #[command(subcommand)]

@@ -430,3 +430,68 @@ fn numbers_overflow_and_ranges_are_named_errors() {
     succeeds(d, &stream(&["--cache", "64k", "--max-frames", "1K"]));
     succeeds(d, &["bake", "oct.ply", "-o", "o.tg", "--block-size", "4K"]);
 }
+
+/// A 64 KB `.tg` whose (validly sealed) header claims 2²⁸ blocks of 64 KB: streaming it would keep a
+/// table of 3 GB. Refused at the `stream` limit before anything is allocated.
+#[test]
+fn a_streamed_header_claiming_terabytes_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), OCTAHEDRON).unwrap();
+    succeeds(
+        d,
+        &[
+            "bake",
+            "oct.ply",
+            "-o",
+            "oct.tg",
+            "--depth",
+            "3",
+            "--block-size",
+            "64K",
+        ],
+    );
+    succeeds(d, &["render", "oct.tg", "-o", "s.png", "--stream"]);
+    let mut tg = std::fs::read(d.join("oct.tg")).unwrap();
+    let bs = 1usize << tg[12];
+    assert_eq!(bs, 65536);
+    let levels = 4;
+    let list_at = 72 + 24 * levels;
+    let table_blocks = ((bs - 4 - list_at) / 4) as u32;
+    let blocks = table_blocks << (tg[12] - 2);
+    let old_table_blocks = u32::from_le_bytes(tg[36..40].try_into().unwrap());
+    tg[32..36].copy_from_slice(&blocks.to_le_bytes());
+    tg[36..40].copy_from_slice(&table_blocks.to_le_bytes());
+    // The level arrays move with the start of the data blocks.
+    let shift = (table_blocks - old_table_blocks) << tg[12];
+    for l in 0..levels {
+        for f in 1..5 {
+            let at = list_at - 24 * levels + 24 * l + 4 * f;
+            let off = u32::from_le_bytes(tg[at..at + 4].try_into().unwrap());
+            if off != 0 {
+                tg[at..at + 4].copy_from_slice(&(off + shift).to_le_bytes());
+            }
+        }
+    }
+    let crc = pocketsplat_core::crc::crc32(&tg[..bs - 4]);
+    tg[bs - 4..bs].copy_from_slice(&crc.to_le_bytes());
+    std::fs::write(d.join("claims.tg"), &tg[..bs]).unwrap();
+    fails(
+        d,
+        &["render", "claims.tg", "-o", "o.png", "--stream"],
+        &["claims.tg", "stream=8G", "--limits stream=SIZE"],
+    );
+    fails(
+        d,
+        &[
+            "render",
+            "oct.tg",
+            "-o",
+            "o.png",
+            "--stream",
+            "--limits",
+            "stream=64K",
+        ],
+        &["oct.tg", "stream=64K"],
+    );
+}

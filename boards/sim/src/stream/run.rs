@@ -31,11 +31,14 @@ impl OwnedStream {
     /// down to whole blocks, at least 4 blocks) and one table entry per block.
     ///
     /// # Errors
-    /// When the header cannot be read or is invalid.
+    /// When the header cannot be read or is invalid, or claims a file over the `stream` limit.
     pub fn new<C: ChunkSource + ?Sized>(src: &mut C, cache_bytes: usize) -> Result<Self> {
         let mut scratch = vec![0u8; MAX_BLOCK];
         let (header, _, _) =
             read_tg_header(src, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
+        // One table entry per block of the file the header claims: bounded before it is allocated.
+        let claimed = u64::from(header.blocks) << header.block_log2;
+        crate::limits::current().check("stream", "the file size its header claims", claimed)?;
         let bs = header.block_size();
         let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
         Ok(Self {
