@@ -421,6 +421,7 @@ fn numbers_overflow_and_ranges_are_named_errors() {
         &["bake", "oct.ply", "-o", "o.tg", "--limits", "cpu=1"][..],
         &["render", "oct.tg", "-o", "o.png", "--fov", "1e999"][..],
         &["render", "oct.tg", "-o", "o.png", "--cutoff", "1e39"][..],
+        &["render", "oct.tg", "-o", "o.png", "--cutoff", "1e-50"][..],
         &["report", "shadows", "--map", "18446744073709551615"][..],
         &["view", "oct.tg", "--frames", "0"][..],
     ] {

@@ -453,36 +453,36 @@ pub fn bake_loaded(
             rho,
         )
     };
+    // Every mesh object is estimated (a shallow probe each) before any is baked; past the `bake`
+    // limit only with `force`. The estimates also say which objects get a progress bar.
     let limit = crate::limits::current().bake;
     let mut estimates = Vec::new();
-    if !overrides.force && limit < u64::MAX {
-        let mut memory = 0u64;
-        for (o, l) in f.objects.iter().zip(objects) {
-            let Some(mesh) = &l.mesh else {
-                estimates.push(None);
-                continue;
-            };
-            let depth = asked_depth(o);
-            let e =
-                crate::cmd::bake::estimate_bake(mesh, BakeOptions { rho, depth }).map_err(|e| {
-                    anyhow::anyhow!("{}: object {:?}: {e}", scene.path.display(), o.name)
-                })?;
-            e.check(limit, depth).map_err(|e| {
-                anyhow::anyhow!("{}: object {:?}: {e}", scene.path.display(), o.name)
-            })?;
-            memory = memory.saturating_add(e.file_bytes);
-            estimates.push(Some(e));
+    let mut files = 0u64;
+    for (o, l) in f.objects.iter().zip(objects) {
+        let Some(mesh) = &l.mesh else {
+            estimates.push(None);
+            continue;
+        };
+        let depth = asked_depth(o);
+        let at = |e: anyhow::Error| {
+            anyhow::anyhow!("{}: object {:?}: {e}", scene.path.display(), o.name)
+        };
+        let e = crate::cmd::bake::estimate_bake(mesh, BakeOptions { rho, depth }).map_err(at)?;
+        if !overrides.force {
+            e.check(limit, depth).map_err(at)?;
         }
-        // The packed files of every object are held together at the end.
-        if memory > limit {
-            bail!(
-                "{}: the objects' files would hold about {} MB together, over the limit bake={} \
-                 (bake less deep, or pass --force, or raise it with --limits bake=SIZE)",
-                scene.path.display(),
-                memory >> 20,
-                crate::args::format_size(limit)
-            );
-        }
+        files = files.saturating_add(e.file_bytes);
+        estimates.push(Some(e));
+    }
+    // The packed files of every object are held together at the end.
+    if !overrides.force && files > limit {
+        bail!(
+            "{}: the objects' files would take about {} MB together, over the limit bake={} \
+             (bake less deep, or pass --force, or raise it with --limits bake=SIZE)",
+            scene.path.display(),
+            files >> 20,
+            crate::args::format_size(limit)
+        );
     }
     let long = |i: usize| {
         estimates
