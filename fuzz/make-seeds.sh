@@ -10,6 +10,8 @@
 #                      picks that pack unchanged; the fuzzer grows edits after it
 #   corpus/tg_stream   empty: structured like tg_render (the empty input streams the first baked
 #                      file through a medium that never fails)
+#   corpus/cli_numbers sizes, counts, floats and --limits lists as the command line takes them
+#   corpus/scene_toml  the scene files in boards/sim/scenes and a small one of each object kind
 # Usage: fuzz/make-seeds.sh   (from anywhere; needs python3 and the models in ../shared/models or
 # $POCKETSPLAT_MODELS)
 set -euo pipefail
@@ -23,6 +25,18 @@ bin="$CARGO_TARGET_DIR/debug/pocketsplat"
 mkdir -p "$here/corpus/tg_open" "$here/corpus/ply_import" "$here/corpus/tg_render" \
   "$here/corpus/pack_open" "$here/corpus/tg_stream"
 for i in 0 1 2; do printf "\\x0$i" > "$here/corpus/pack_open/base-$i"; done
+mkdir -p "$here/corpus/cli_numbers" "$here/corpus/scene_toml"
+i=0
+for n in 0 4096 64K 16m 1G 18446744073709551615 100000M 1.5 -40,60 30,20,2.5 nan 1e999 \
+    "ply=4G,triangles=100M" "bake=1G" " 7 "; do
+  printf '%s' "$n" > "$here/corpus/cli_numbers/n$i"; i=$((i + 1))
+done
+install -m 644 "$root"/boards/sim/scenes/*.toml "$here/corpus/scene_toml/"
+printf '%s\n' '[materials.m]' 'color = [0.5, 0.5, 0.5]' 'ambient = 0.2' 'diffuse = 0.8' \
+  'specular = 0.0' 'exponent = 1.0' '[[objects]]' 'name = "g"' 'material = "m"' \
+  'ground = { size = 4.0, tiles = 4 }' 'depth = 3' '[[objects]]' 'name = "f"' 'material = "m"' \
+  'file = "x.tg"' '[[views]]' 'name = "v"' 'az = 30.0' 'el = 20.0' 'dist = 2.5' \
+  > "$here/corpus/scene_toml/small.toml"
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 

@@ -102,7 +102,7 @@ pub fn encode_rgb8_png(width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<Ve
 /// # Errors
 /// When the file cannot be read or is not a valid PNG; the message names the file.
 pub fn read_rgb8_png(path: &Path) -> Result<Rgb8Image> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsutil::read_file(path)?;
     decode_rgb8_png(&bytes).with_context(|| format!("{}: not a readable PNG", path.display()))
 }
 

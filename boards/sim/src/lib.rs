@@ -2,11 +2,13 @@
 //! output, reports and the `pocketsplat` command line live here; everything that runs on the device
 //! lives in `pocketsplat-core`.
 
+pub mod args;
 pub mod bvh;
 pub mod cmd;
 pub mod demo;
 pub mod fsutil;
 pub mod image;
+pub mod limits;
 pub mod metrics;
 pub mod ply;
 pub mod qsplat;

@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::scene::PackShadows;
+use pocketsplat_sim::args::{self, Ends};
 use pocketsplat_sim::render::ShadowMode;
 use pocketsplat_sim::{cmd, report, scene};
 
@@ -16,6 +17,12 @@ use pocketsplat_sim::{cmd, report, scene};
     about = "Hierarchical point rendering for FPU-less handhelds"
 )]
 struct Cli {
+    /// Raise or lower input limits, NAME=SIZE[,NAME=SIZE...] (K, M, G = 1024, 1024², 1024³):
+    /// file=1G (a file read whole), scene=16M (a scene file), ply=2G (a PLY once decompressed),
+    /// vertices=16M and triangles=32M (declared in a PLY), bake=1G (a bake's estimated memory),
+    /// stream=8G (a file read with --stream, as its header claims).
+    #[arg(long, global = true, value_name = "NAME=SIZE")]
+    limits: Vec<String>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -31,17 +38,21 @@ enum Command {
         #[arg(short, long)]
         out: PathBuf,
         /// Cells per axis per subdivision: 2 (octree), 3 (tri-grid), 4, 5.
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, default_value_t = 3, value_parser = args::int::<u8>(2, 5))]
         rho: u8,
         /// Subdivisions (ρ^depth cells across); the paper's level L is depth L+1.
-        #[arg(long, default_value_t = 6)]
+        #[arg(long, default_value_t = 6,
+              value_parser = args::int::<u8>(0, u64::from(pocketsplat_core::tg::MAX_DEPTH)))]
         depth: u8,
-        /// Block size in bytes (power of two, 512..=65536); each block carries a CRC.
-        #[arg(long, default_value_t = 4096)]
+        /// Block size in bytes (power of two, 512..=64K); each block carries a CRC.
+        #[arg(long, default_value = "4096", value_parser = args::block_size)]
         block_size: u32,
         /// Output format.
         #[arg(long, default_value = "tg")]
         format: String,
+        /// Bake even when the estimate of its memory is over the `bake` limit (see --limits).
+        #[arg(long)]
+        force: bool,
     },
     /// Describe a point file (header, samples and α per level, size per leaf sample) or a scene
     /// pack (per object what is present and what was left out, and the RAM a frame needs).
@@ -65,10 +76,10 @@ enum Command {
         #[arg(long, default_value = "std", allow_hyphen_values = true)]
         view: String,
         /// Vertical field of view, degrees.
-        #[arg(long, default_value_t = 45.0)]
+        #[arg(long, default_value_t = 45.0, value_parser = args::float::<f64>(0.0, 180.0, Ends::Open))]
         fov: f64,
         /// LOD cutoff: largest projected cell drawn as one splat, pixels.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, value_parser = cutoff_px)]
         cutoff: f32,
         /// Splat kernel.
         #[arg(long, value_enum, default_value_t = KernelArg::Square)]
@@ -93,15 +104,18 @@ enum Command {
         /// nothing; write that frame. Without shadows.
         #[arg(long)]
         stream: bool,
-        /// With `--stream`: bytes read per frame at most (K and M suffixes: 1024, 1024²).
-        #[arg(long, default_value = "64K", requires = "stream")]
-        io_budget: String,
-        /// With `--stream`: bytes of block cache.
-        #[arg(long, default_value = "16M", requires = "stream")]
-        cache: String,
-        /// With `--stream`: give up (an error, no output) after this many frames, e.g. when the
-        /// view needs more blocks at once than the cache holds.
-        #[arg(long, default_value_t = 1000, requires = "stream")]
+        /// With `--stream`: bytes read per frame at most, 512 to 1G (K, M, G: 1024, 1024², 1024³).
+        #[arg(long, default_value = "64K", requires = "stream",
+              value_parser = args::size::<u32>(512, 1 << 30))]
+        io_budget: u32,
+        /// With `--stream`: bytes of block cache, 4K to 1G.
+        #[arg(long, default_value = "16M", requires = "stream",
+              value_parser = args::size::<usize>(4 << 10, 1 << 30))]
+        cache: usize,
+        /// With `--stream`: give up (an error, no output) after this many frames (1 to 1M), e.g.
+        /// when the view needs more blocks at once than the cache holds.
+        #[arg(long, default_value = "1000", requires = "stream",
+              value_parser = args::size::<u32>(1, 1 << 20))]
         max_frames: u32,
     },
     /// Show a point file in a window: orbit, pan and zoom with the mouse and keys, refined to
@@ -114,10 +128,10 @@ enum Command {
         #[arg(long, default_value = "std", allow_hyphen_values = true)]
         view: String,
         /// Vertical field of view, degrees.
-        #[arg(long, default_value_t = 45.0)]
+        #[arg(long, default_value_t = 45.0, value_parser = args::float::<f64>(0.0, 180.0, Ends::Open))]
         fov: f64,
         /// LOD cutoff while moving, pixels (1..=64); idle frames refine it down to 1 px.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = 2.0, value_parser = cutoff_px)]
         cutoff: f32,
         /// Splat kernel.
         #[arg(long, value_enum, default_value_t = KernelArg::Square)]
@@ -129,16 +143,16 @@ enum Command {
         #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
         shadows: ShadowArg,
         /// Window pixels per framebuffer pixel: 1, 2 or 4.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, default_value_t = 2, value_parser = args::int::<usize>(1, 4))]
         scale: usize,
         /// Keep the moving cutoff when idle (no progressive refinement).
         #[arg(long)]
         no_refine: bool,
         /// Adapt the moving cutoff to hold this frame rate (QSplat's frame-rate control).
-        #[arg(long)]
+        #[arg(long, value_parser = args::float::<f32>(0.0, 1000.0, Ends::OpenLow))]
         target_fps: Option<f32>,
         /// Quit after N window updates (60 per second at most); for scripts and tests.
-        #[arg(long, value_name = "N")]
+        #[arg(long, value_name = "N", value_parser = args::size::<u64>(1, 1 << 30))]
         frames: Option<u64>,
         /// Write the frame on screen (HUD included) as a PNG when fully refined, and at exit.
         #[arg(long, value_name = "PNG")]
@@ -185,7 +199,7 @@ enum ReportKind {
         #[arg(long)]
         mesh: Option<PathBuf>,
         /// Timed repeats per frame (the median is reported).
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, value_parser = args::int::<usize>(1, 1000))]
         repeats: usize,
     },
     /// Error against run time: every view × cutoff (0.5–16 px) × method (tri-grid, octree, QSplat,
@@ -203,10 +217,10 @@ enum ReportKind {
         quick: bool,
         /// A mesh: tri-grid subdivisions (default 6, or 4 with --quick; the octree gets the
         /// nearest resolution). A scene: the deepest object (default the scene's, 4 with --quick).
-        #[arg(long)]
+        #[arg(long, value_parser = args::int::<u8>(0, u64::from(pocketsplat_core::tg::MAX_DEPTH)))]
         depth: Option<u8>,
         /// Timed repeats per frame, the median is reported (default 5, or 1 with --quick).
-        #[arg(long)]
+        #[arg(long, value_parser = args::int::<usize>(1, 1000))]
         repeats: Option<usize>,
         /// ARM instruction counts: a file `arm-bench --json` wrote (repeatable). Frames of the
         /// same baked file, view, cutoff, shadows and kernel get its count.
@@ -241,13 +255,16 @@ enum ReportKind {
         #[arg(long)]
         models: Option<PathBuf>,
         /// Timed repeats per frame (the median is reported).
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, value_parser = args::int::<usize>(1, 1000))]
         repeats: usize,
         /// The bunny only, at depth 5 (a quick check, not the paper's level 5).
         #[arg(long)]
         quick: bool,
         /// Shadow-map side, texels.
-        #[arg(long, default_value_t = pocketsplat_sim::render::DEFAULT_SHADOW_MAP_SIZE)]
+        #[arg(long, default_value_t = pocketsplat_sim::render::DEFAULT_SHADOW_MAP_SIZE,
+              value_parser = args::int::<usize>(
+                  pocketsplat_core::scene::MIN_MAP_SIZE as u64,
+                  pocketsplat_core::scene::MAX_MAP_SIZE as u64))]
         map: usize,
     },
 }
@@ -259,12 +276,22 @@ fn default_models() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("../shared/models"))
 }
 
+/// A positive, finite LOD cutoff in pixels.
+fn cutoff_px(text: &str) -> Result<f32, String> {
+    args::float::<f32>(0.0, f64::from(f32::MAX), Ends::OpenLow)(text)
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
+    let mut limits = pocketsplat_sim::limits::Limits::DEFAULT;
+    for l in &cli.limits {
+        limits.apply(l)?;
+    }
+    pocketsplat_sim::limits::set_current(limits);
     match cli.command {
         None => pocketsplat_sim::demo::run(),
-        Some(Command::Bake { mesh, out, .. }) if scene::cmd::is_scene_file(&mesh) => {
-            scene::cmd::bake(&mesh, &out)
-        }
+        Some(Command::Bake {
+            mesh, out, force, ..
+        }) if scene::cmd::is_scene_file(&mesh) => scene::cmd::bake(&mesh, &out, force),
         Some(Command::Bake {
             mesh,
             out,
@@ -272,7 +299,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             depth,
             block_size,
             format,
-        }) => cmd::bake::run(&mesh, &out, rho, depth, block_size, &format),
+            force,
+        }) => cmd::bake::run(&mesh, &out, rho, depth, block_size, &format, force),
         Some(Command::Info { file, json }) if scene::cmd::is_pack(&file) => {
             scene::cmd::info(&file, json)
         }
@@ -287,8 +315,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             light,
             shadows,
             stats_json,
+            stream,
             ..
         }) if scene::cmd::is_pack(&input) => {
+            if stream {
+                anyhow::bail!(
+                    "{}: --stream reads one .tg file (a path or an http:// URL); a scene pack \
+                     cannot be streamed yet: render it without --stream",
+                    input.display()
+                );
+            }
             // A pack brings its own light, shadows and field of view: flags left out keep them.
             let given = scene::cmd::flag_given;
             let args = scene::cmd::RenderArgs {
@@ -307,7 +343,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }),
                 stats_json,
             };
-            check_fov_cutoff(fov, cutoff)?;
             scene::cmd::render(&input, &out, &args)
         }
         Some(Command::Render {
@@ -326,8 +361,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cache,
             max_frames,
         }) => {
-            check_fov_cutoff(fov, cutoff)?;
-            let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
+            let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
                 view: cmd::render::parse_view(&view)?,
                 fov_deg: fov,
@@ -353,12 +387,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             if stream {
                 let opts = pocketsplat_sim::stream::StreamOptions {
-                    io_budget: u32::try_from(pocketsplat_sim::stream::run::parse_bytes(
-                        "--io-budget",
-                        &io_budget,
-                    )?)
-                    .map_err(|_| anyhow::anyhow!("--io-budget {io_budget}: at most 4 GB"))?,
-                    cache_bytes: pocketsplat_sim::stream::run::parse_bytes("--cache", &cache)?,
+                    io_budget,
+                    cache_bytes: cache,
                     max_frames,
                 };
                 let input = input.to_string_lossy();
@@ -382,8 +412,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             frames,
             screenshot,
         }) => {
-            check_fov_cutoff(fov, cutoff)?;
-            let [az, el] = cmd::render::parse_numbers::<2>("--light", &light)?;
+            let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
                 view: cmd::render::parse_view(&view)?,
                 fov_deg: fov,
@@ -473,17 +502,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// The `--fov` and `--cutoff` of `render` (any input) and `view`.
-fn check_fov_cutoff(fov: f64, cutoff: f32) -> anyhow::Result<()> {
-    if !(fov > 0.0 && fov < 180.0) {
-        anyhow::bail!("--fov {fov}: must be between 0 and 180 degrees");
-    }
-    if !(cutoff > 0.0 && cutoff.is_finite()) {
-        anyhow::bail!("--cutoff {cutoff}: must be a positive number of pixels");
-    }
-    Ok(())
-}
-
 /// `pocketsplat info x.tg | head`: a reader that closes the pipe early is not a crash. Rust ignores
 /// SIGPIPE, so `print!` panics on the broken pipe instead; end quietly with the status a shell
 /// gives a process killed by SIGPIPE (128 + 13), as C tools end.
@@ -503,9 +521,32 @@ fn quiet_broken_pipe() {
     }));
 }
 
+/// The command line, or exit with clap's message. A number refused by one of [`args`]'s parsers
+/// is reported as `error: --cache 100000M: must be from 4K to 1G` (the option, the value, why).
+fn parse_cli() -> Cli {
+    use clap::error::{ContextKind, ErrorKind};
+    match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.kind() == ErrorKind::ValueValidation => {
+            let arg = e.get(ContextKind::InvalidArg).map(ToString::to_string);
+            let value = e.get(ContextKind::InvalidValue).map(ToString::to_string);
+            let why = std::error::Error::source(&e).map(ToString::to_string);
+            match (arg, value, why) {
+                (Some(arg), Some(value), Some(why)) => {
+                    let option = arg.split_whitespace().next().unwrap_or(&arg).to_owned();
+                    eprintln!("error: {option} {value}: {why}");
+                    std::process::exit(2);
+                }
+                _ => e.exit(),
+            }
+        }
+        Err(e) => e.exit(),
+    }
+}
+
 fn main() -> ExitCode {
     quiet_broken_pipe();
-    match run(Cli::parse()) {
+    match run(parse_cli()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

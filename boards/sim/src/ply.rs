@@ -16,6 +16,19 @@
 //! - Its ASCII number grammar takes only `[+-]digits[.digits][e[+-]digits]`: `nan` and `inf` are
 //!   syntax errors there (a vertex line that fails is re-checked, so a non-finite coordinate is still
 //!   reported as one), and `.5` or `5.` are rejected.
+//! - Its binary readers grow a list element by element for whatever count the file declares (a
+//!   face list of 2³² − 1 entries fills gigabytes before the file runs out): binary records are
+//!   decoded here (`Body::binary_record`), a face list of other than 3 entries is refused at its
+//!   count, and every other list is skipped by its byte size.
+//! - Records of elements the mesh does not use are skipped without decoding them: by their byte
+//!   size in binary, by line in ASCII, so that a file of billions of tiny records takes as long as
+//!   its bytes take to read.
+//!
+//! **Limits** ([`crate::limits`]): the counts a header declares are checked before the body is
+//! read, against the `vertices` and `triangles` limits and against the bytes that can follow the
+//! header (what is left of a file, or the `ply` limit on decompressed bytes for a gzip stream or a
+//! reader of unknown length); the decompressed stream is cut at the `ply` limit; and a gzip
+//! stream is read to its end, so that its trailer (CRC-32 and length, RFC 1952 §2.3.1) is checked.
 //!
 //! # Example
 //!
@@ -38,6 +51,8 @@ use ply_rs_bw::ply::{
     ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
 };
 use pocketsplat_core::bake::{MeshError, TriMesh};
+
+use crate::limits::{self, Exceeded, Limits};
 
 /// Longest header accepted, in bytes (comments included).
 pub const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -139,6 +154,26 @@ pub enum PlyError {
         /// The offending vertex index.
         index: i64,
     },
+    /// A limit was exceeded: a declared count, or the bytes of the decompressed stream.
+    #[error("{file}: {error}")]
+    Limit {
+        /// The file.
+        file: String,
+        /// Which limit, the value found, and how to raise it.
+        error: Exceeded,
+    },
+    /// The header declares more records than the bytes after it can hold.
+    #[error("{file}: the header declares {declared}: at least {needed} bytes, but {available}")]
+    TooShort {
+        /// The file.
+        file: String,
+        /// The counts declared (`3 'vertex' records of at least 6 bytes`, ...).
+        declared: String,
+        /// Bytes those records take at the least.
+        needed: u64,
+        /// What is available, in words (`only 12 bytes follow it`).
+        available: String,
+    },
     /// The mesh was read but fails [`TriMesh::validate`]: empty, a non-finite vertex, a face index
     /// out of range, or no triangle with any area.
     #[error("{file}: {error}")]
@@ -162,19 +197,65 @@ pub enum PlyError {
 /// missing or mistyped property, malformed or truncated body, a face that is not a triangle or has a
 /// negative index, and whatever [`TriMesh::validate`] rejects.
 pub fn load_mesh(path: &Path) -> Result<TriMesh, PlyError> {
-    let file = path.display().to_string();
-    let reader = File::open(path).map_err(|error| PlyError::Io {
-        file: file.clone(),
-        error,
-    })?;
-    load_mesh_from_reader(&file, reader)
+    load_mesh_with(path, &limits::current())
 }
 
-/// Reads a PLY mesh from any reader, compressed or not; `name` stands for the file in errors.
+/// [`load_mesh`] within `limits` rather than those in force.
 ///
 /// # Errors
-/// As [`load_mesh`].
-pub fn load_mesh_from_reader(name: &str, mut reader: impl Read) -> Result<TriMesh, PlyError> {
+/// As [`load_mesh`], and [`PlyError::Limit`] or [`PlyError::TooShort`] when the file declares more
+/// than the limits or its bytes allow. A folder, device or FIFO is refused ([`PlyError::Io`]).
+pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError> {
+    let file = path.display().to_string();
+    let io = |error| PlyError::Io {
+        file: file.clone(),
+        error,
+    };
+    // Looked at before it is opened: opening a FIFO blocks until something writes to it.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(io(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            if meta.is_dir() {
+                "it is a folder"
+            } else {
+                "not a regular file (a device, FIFO or socket); copy it to a file first"
+            },
+        )));
+    }
+    let reader = File::open(path).map_err(io)?;
+    let len = reader.metadata().map_err(io)?.len();
+    load(&file, reader, limits, Some(len))
+}
+
+/// Reads a PLY mesh from any reader, compressed or not, within the limits in force; `name` stands
+/// for the file in errors.
+///
+/// # Errors
+/// As [`load_mesh_with`].
+pub fn load_mesh_from_reader(name: &str, reader: impl Read) -> Result<TriMesh, PlyError> {
+    load(name, reader, &limits::current(), None)
+}
+
+/// [`load_mesh_from_reader`] within `limits`.
+///
+/// # Errors
+/// As [`load_mesh_with`].
+pub fn load_mesh_from_reader_with(
+    name: &str,
+    reader: impl Read,
+    limits: &Limits,
+) -> Result<TriMesh, PlyError> {
+    load(name, reader, limits, None)
+}
+
+/// `len`: the reader's length in bytes when known (a regular file).
+fn load(
+    name: &str,
+    mut reader: impl Read,
+    limits: &Limits,
+    len: Option<u64>,
+) -> Result<TriMesh, PlyError> {
     let mut magic = [0u8; 2];
     let n = read_prefix(&mut reader, &mut magic).map_err(|error| PlyError::Io {
         file: name.to_owned(),
@@ -184,13 +265,94 @@ pub fn load_mesh_from_reader(name: &str, mut reader: impl Read) -> Result<TriMes
     let stream = prefix.chain(reader);
     if prefix == GZIP_MAGIC {
         // Multi-member, as `gzip` itself reads concatenated files.
-        read_ply(
-            name,
-            BufReader::with_capacity(BUFFER_BYTES, MultiGzDecoder::new(stream)),
-        )
+        let inflated = Capped::new(MultiGzDecoder::new(stream), limits.ply);
+        let mut reader = BufReader::with_capacity(BUFFER_BYTES, inflated);
+        let mesh = read_ply(name, &mut reader, limits, None)?;
+        // To the end of the stream: the decoder checks each member's CRC-32 and length there.
+        io::copy(&mut reader, &mut io::sink()).map_err(|error| {
+            capped(name, &error).unwrap_or_else(|| PlyError::Io {
+                file: name.to_owned(),
+                error: io::Error::new(
+                    error.kind(),
+                    format!("the gzip stream after the last record is damaged: {error}"),
+                ),
+            })
+        })?;
+        Ok(mesh)
     } else {
-        read_ply(name, BufReader::with_capacity(BUFFER_BYTES, stream))
+        if let Some(len) = len {
+            limits
+                .check("ply", "size in bytes", len)
+                .map_err(|error| PlyError::Limit {
+                    file: name.to_owned(),
+                    error,
+                })?;
+        }
+        let mut reader = BufReader::with_capacity(BUFFER_BYTES, Capped::new(stream, limits.ply));
+        read_ply(name, &mut reader, limits, len)
     }
+}
+
+/// A reader that fails once more than `max` bytes come through it (the `ply` limit on the
+/// decompressed stream).
+struct Capped<R> {
+    inner: R,
+    left: u64,
+    max: u64,
+}
+
+impl<R> Capped<R> {
+    fn new(inner: R, max: u64) -> Self {
+        Self {
+            inner,
+            left: max,
+            max,
+        }
+    }
+}
+
+/// The error a [`Capped`] reader fails with.
+#[derive(Debug)]
+struct CapReached(u64);
+
+impl std::fmt::Display for CapReached {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "more than {} bytes", self.0)
+    }
+}
+
+impl std::error::Error for CapReached {}
+
+impl<R: Read> Read for Capped<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.left == 0 {
+            let mut probe = [0u8; 1];
+            return match self.inner.read(&mut probe)? {
+                0 => Ok(0),
+                _ => Err(io::Error::other(CapReached(self.max))),
+            };
+        }
+        let n = buf
+            .len()
+            .min(usize::try_from(self.left).unwrap_or(usize::MAX));
+        let k = self.inner.read(buf.get_mut(..n).unwrap_or_default())?;
+        self.left = self.left.saturating_sub(k as u64);
+        Ok(k)
+    }
+}
+
+/// The [`PlyError::Limit`] for an I/O error a [`Capped`] reader raised.
+fn capped(file: &str, e: &io::Error) -> Option<PlyError> {
+    let cap = e.get_ref()?.downcast_ref::<CapReached>()?;
+    Some(PlyError::Limit {
+        file: file.to_owned(),
+        error: Exceeded {
+            name: "ply",
+            what: "decompressed size in bytes".into(),
+            value: cap.0.saturating_add(1),
+            max: cap.0,
+        },
+    })
 }
 
 /// Fills `buf` as far as the reader allows; returns how many bytes were read.
@@ -207,16 +369,23 @@ fn read_prefix(reader: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
     Ok(n)
 }
 
-fn read_ply(file: &str, mut reader: impl BufRead) -> Result<TriMesh, PlyError> {
-    let (header, header_lines) = read_header(file, &mut reader)?;
+fn read_ply(
+    file: &str,
+    reader: &mut impl BufRead,
+    limits: &Limits,
+    len: Option<u64>,
+) -> Result<TriMesh, PlyError> {
+    let (header, header_lines, header_bytes) = read_header(file, reader)?;
     let vertex = header
         .elements
         .get("vertex")
         .map(|def| VertexLayout::new(file, def))
         .transpose()?;
-    if let Some(def) = header.elements.get("face") {
-        check_face(file, def)?;
-    }
+    let face_list = match header.elements.get("face") {
+        Some(def) => Some(check_face(file, def)?),
+        None => None,
+    };
+    check_counts(file, &header, limits, len, header_bytes)?;
 
     let mut mesh = TriMesh::default();
     let mut colors = Vec::new();
@@ -234,7 +403,7 @@ fn read_ply(file: &str, mut reader: impl BufRead) -> Result<TriMesh, PlyError> {
                 if layout.has_color {
                     colors.reserve(def.count.min(MAX_RESERVE));
                 }
-                body.read_records(def, layout.coord_columns, |_, v: VertexRecord| {
+                body.read_records(def, layout.coord_columns, None, |_, v: VertexRecord| {
                     mesh.positions.push(v.position);
                     if layout.has_color {
                         colors.push(v.color);
@@ -244,12 +413,12 @@ fn read_ply(file: &str, mut reader: impl BufRead) -> Result<TriMesh, PlyError> {
             }
             ("face", _) => {
                 mesh.triangles.reserve(def.count.min(MAX_RESERVE));
-                body.read_records(def, None, |face, f: FaceRecord| {
+                body.read_records(def, None, face_list.as_deref(), |face, f: FaceRecord| {
                     mesh.triangles.push(f.triangle(file, face)?);
                     Ok(())
                 })?;
             }
-            _ => body.read_records(def, None, |_, _: SkipRecord| Ok(()))?,
+            _ => body.skip_records(def)?,
         }
     }
     if vertex.as_ref().is_some_and(|layout| layout.has_color) {
@@ -262,12 +431,108 @@ fn read_ply(file: &str, mut reader: impl BufRead) -> Result<TriMesh, PlyError> {
     Ok(mesh)
 }
 
+/// Checks the header's counts before the body is read: `vertices` and `triangles` against their
+/// limits, and every element's records at their smallest against the bytes that can follow the
+/// header: what is left of a file of `len` bytes, else the `ply` limit.
+fn check_counts(
+    file: &str,
+    header: &Header,
+    limits: &Limits,
+    len: Option<u64>,
+    header_bytes: u64,
+) -> Result<(), PlyError> {
+    let limit = |name, what, count: usize| {
+        limits
+            .check(name, what, count as u64)
+            .map_err(|error| PlyError::Limit {
+                file: file.to_owned(),
+                error,
+            })
+    };
+    if let Some(def) = header.elements.get("vertex") {
+        limit("vertices", "declared vertices", def.count)?;
+    }
+    if let Some(def) = header.elements.get("face") {
+        limit("triangles", "declared faces", def.count)?;
+    }
+    let ascii = header.encoding == Encoding::Ascii;
+    let mut needed: u128 = 0;
+    let mut declared = Vec::new();
+    for def in header.elements.values() {
+        let min = min_record_bytes(def, ascii);
+        if def.count > 0 && min > 0 {
+            needed += def.count as u128 * u128::from(min);
+            declared.push(format!(
+                "{} '{}' records of at least {min} bytes",
+                def.count, def.name
+            ));
+        }
+    }
+    // The last ASCII line may end without its line break.
+    if ascii {
+        needed = needed.saturating_sub(1);
+    }
+    let needed = u64::try_from(needed).unwrap_or(u64::MAX);
+    let (available, words) = match len {
+        Some(len) => {
+            let left = len.saturating_sub(header_bytes);
+            (left, format!("only {left} bytes follow it"))
+        }
+        None => {
+            let left = limits.ply.saturating_sub(header_bytes);
+            (
+                left,
+                format!(
+                    "the limit ply={} leaves {left} bytes after it once decompressed (raise it with \
+                     --limits ply=SIZE)",
+                    crate::args::format_size(limits.ply)
+                ),
+            )
+        }
+    };
+    if needed > available {
+        return Err(PlyError::TooShort {
+            file: file.to_owned(),
+            declared: declared.join(", "),
+            needed,
+            available: words,
+        });
+    }
+    Ok(())
+}
+
+/// The fewest bytes a record of `def` takes: in binary its scalars and its lists' counts (a list
+/// may be empty); in ASCII 2 per value (a digit and a separator), 1 for a record with none (its
+/// line break). 0 for a binary record of no properties (never read).
+fn min_record_bytes(def: &ElementDef, ascii: bool) -> u64 {
+    if ascii && def.properties.is_empty() {
+        return 1;
+    }
+    def.properties
+        .values()
+        .map(|p| match (&p.data_type, ascii) {
+            (_, true) => 2,
+            (PropertyType::Scalar(t), false) | (PropertyType::List(t, _), false) => scalar_bytes(t),
+        })
+        .sum()
+}
+
+/// Bytes of a binary scalar.
+fn scalar_bytes(t: &ScalarType) -> u64 {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Header
 
 /// Reads the header (through `end_header`) with a length limit, checks for repeated names, and parses
-/// it with `ply-rs-bw`. Returns the header and its number of lines.
-fn read_header(file: &str, reader: &mut impl BufRead) -> Result<(Header, usize), PlyError> {
+/// it with `ply-rs-bw`. Returns the header, its number of lines and its bytes.
+fn read_header(file: &str, reader: &mut impl BufRead) -> Result<(Header, usize, u64), PlyError> {
     let header_error = |what: String| PlyError::Header {
         file: file.to_owned(),
         what,
@@ -334,7 +599,7 @@ fn read_header(file: &str, reader: &mut impl BufRead) -> Result<(Header, usize),
     let header = Parser::<SkipRecord>::new()
         .read_header(&mut Reader::new(text.as_slice()))
         .map_err(|e| header_error(flatten(&e)))?;
-    Ok((header, lines))
+    Ok((header, lines, text.len() as u64))
 }
 
 /// The start of a line, for an error message.
@@ -455,7 +720,8 @@ impl VertexLayout {
 /// The face list property, in order of preference.
 const FACE_LISTS: [&str; 2] = ["vertex_indices", "vertex_index"];
 
-fn check_face(file: &str, def: &ElementDef) -> Result<(), PlyError> {
+/// Checks the face element and returns the name of the list it is read from.
+fn check_face(file: &str, def: &ElementDef) -> Result<String, PlyError> {
     let Some(p) = FACE_LISTS.iter().find_map(|name| def.properties.get(*name)) else {
         return Err(PlyError::MissingProperty {
             file: file.to_owned(),
@@ -464,7 +730,9 @@ fn check_face(file: &str, def: &ElementDef) -> Result<(), PlyError> {
         });
     };
     match &p.data_type {
-        PropertyType::List(count, item) if is_integer(count) && is_integer(item) => Ok(()),
+        PropertyType::List(count, item) if is_integer(count) && is_integer(item) => {
+            Ok(p.name.clone())
+        }
         t => Err(PlyError::PropertyType {
             file: file.to_owned(),
             element: def.name.clone(),
@@ -490,11 +758,14 @@ struct Body<'a, B> {
 }
 
 impl<B: BufRead> Body<'_, B> {
-    /// Reads every record of `def` and hands it to `each` with its index.
+    /// Reads every record of `def` and hands it to `each` with its index. `face_list` names the
+    /// list a face is read from: a binary record whose list there has other than 3 entries is
+    /// [`PlyError::NotTriangle`] before any entry is read.
     fn read_records<E: PropertyAccess>(
         &mut self,
         def: &ElementDef,
         coord_columns: Option<[usize; 3]>,
+        face_list: Option<&str>,
         mut each: impl FnMut(usize, E) -> Result<(), PlyError>,
     ) -> Result<(), PlyError> {
         if def.properties.is_empty() && self.encoding != Encoding::Ascii {
@@ -505,15 +776,291 @@ impl<B: BufRead> Body<'_, B> {
         for index in 0..def.count {
             let record = match self.encoding {
                 Encoding::Ascii => self.ascii_record(&parser, def, index, coord_columns)?,
-                Encoding::BinaryLittleEndian => parser
-                    .read_little_endian_element(&mut self.reader, def)
-                    .map_err(|e| self.binary_error(def, index, &e))?,
-                Encoding::BinaryBigEndian => parser
-                    .read_big_endian_element(&mut self.reader, def)
-                    .map_err(|e| self.binary_error(def, index, &e))?,
+                Encoding::BinaryLittleEndian => self.binary_record(def, index, face_list, false)?,
+                Encoding::BinaryBigEndian => self.binary_record(def, index, face_list, true)?,
             };
             each(index, record)?;
         }
+        Ok(())
+    }
+
+    /// Skips every record of `def` without decoding it: in ASCII one line each, in binary by the
+    /// byte sizes of its scalars and lists (in one stretch when it has no list).
+    fn skip_records(&mut self, def: &ElementDef) -> Result<(), PlyError> {
+        if self.encoding == Encoding::Ascii {
+            return self.skip_lines(def);
+        }
+        let big = self.encoding == Encoding::BinaryBigEndian;
+        let fixed: Option<u64> = def
+            .properties
+            .values()
+            .map(|p| match &p.data_type {
+                PropertyType::Scalar(t) => Some(scalar_bytes(t)),
+                PropertyType::List(..) => None,
+            })
+            .sum();
+        match fixed {
+            Some(0) => Ok(()),
+            Some(size) => {
+                let total = u64::try_from(def.count as u128 * u128::from(size)).unwrap_or(u64::MAX);
+                let skipped = self
+                    .skip_bytes(total)
+                    .map_err(|e| self.io_error(def, 0, &e))?;
+                if skipped < total {
+                    return Err(self.truncated(def, (skipped / size) as usize));
+                }
+                Ok(())
+            }
+            None => {
+                for index in 0..def.count {
+                    for p in def.properties.values() {
+                        let n = match &p.data_type {
+                            PropertyType::Scalar(t) => scalar_bytes(t),
+                            PropertyType::List(c, i) => {
+                                self.list_count(def, index, c, big)? * scalar_bytes(i)
+                            }
+                        };
+                        let skipped = self
+                            .skip_bytes(n)
+                            .map_err(|e| self.io_error(def, index, &e))?;
+                        if skipped < n {
+                            return Err(self.truncated(def, index));
+                        }
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Skips up to `n` bytes; returns how many there were.
+    fn skip_bytes(&mut self, n: u64) -> io::Result<u64> {
+        let mut left = n;
+        while left > 0 {
+            let buf = self.reader.fill_buf()?;
+            if buf.is_empty() {
+                break;
+            }
+            let k = buf.len().min(usize::try_from(left).unwrap_or(usize::MAX));
+            self.reader.consume(k);
+            left -= k as u64;
+        }
+        Ok(n - left)
+    }
+
+    /// Skips `def.count` lines (the last may end without its line break).
+    fn skip_lines(&mut self, def: &ElementDef) -> Result<(), PlyError> {
+        let mut left = def.count;
+        // Bytes of a line not yet ended have been skipped.
+        let mut pending = false;
+        while left > 0 {
+            let buf = match self.reader.fill_buf() {
+                Ok(buf) => buf,
+                Err(e) => return Err(self.io_error(def, def.count - left, &e)),
+            };
+            if buf.is_empty() {
+                if pending && left == 1 {
+                    break;
+                }
+                return Err(self.truncated(def, def.count - left));
+            }
+            let breaks = buf.iter().filter(|&&b| b == b'\n').count();
+            let used = if breaks < left {
+                left -= breaks;
+                pending = buf.last() != Some(&b'\n');
+                buf.len()
+            } else {
+                // The line that ends the element ends inside this buffer.
+                let mut seen = 0;
+                let end = buf
+                    .iter()
+                    .position(|&b| {
+                        seen += usize::from(b == b'\n');
+                        seen == left
+                    })
+                    .map_or(buf.len(), |i| i + 1);
+                left = 0;
+                end
+            };
+            self.reader.consume(used);
+        }
+        self.line_no = self.line_no.saturating_add(def.count);
+        Ok(())
+    }
+
+    /// Reads `N` bytes of record `index` of `def`.
+    fn take<const N: usize>(
+        &mut self,
+        def: &ElementDef,
+        index: usize,
+    ) -> Result<[u8; N], PlyError> {
+        let mut b = [0u8; N];
+        match self.reader.read_exact(&mut b) {
+            Ok(()) => Ok(b),
+            Err(e) => Err(self.io_error(def, index, &e)),
+        }
+    }
+
+    /// A list's entry count, as a non-negative integer.
+    fn list_count(
+        &mut self,
+        def: &ElementDef,
+        index: usize,
+        t: &ScalarType,
+        big: bool,
+    ) -> Result<u64, PlyError> {
+        let v: i64 = match t {
+            ScalarType::Char => i64::from(self.take::<1>(def, index)?[0] as i8),
+            ScalarType::UChar => i64::from(self.take::<1>(def, index)?[0]),
+            ScalarType::Short => {
+                let b = self.take::<2>(def, index)?;
+                i64::from(if big {
+                    i16::from_be_bytes(b)
+                } else {
+                    i16::from_le_bytes(b)
+                })
+            }
+            ScalarType::UShort => {
+                let b = self.take::<2>(def, index)?;
+                i64::from(if big {
+                    u16::from_be_bytes(b)
+                } else {
+                    u16::from_le_bytes(b)
+                })
+            }
+            ScalarType::Int => {
+                let b = self.take::<4>(def, index)?;
+                i64::from(if big {
+                    i32::from_be_bytes(b)
+                } else {
+                    i32::from_le_bytes(b)
+                })
+            }
+            ScalarType::UInt => {
+                let b = self.take::<4>(def, index)?;
+                i64::from(if big {
+                    u32::from_be_bytes(b)
+                } else {
+                    u32::from_le_bytes(b)
+                })
+            }
+            ScalarType::Float | ScalarType::Double => {
+                return Err(self.body_error(def, index, "a list count must be an integer".into()))
+            }
+        };
+        u64::try_from(v)
+            .map_err(|_| self.body_error(def, index, format!("list count {v} is negative")))
+    }
+
+    /// Decodes one binary record: scalars into `E`, the face list (3 entries, or
+    /// [`PlyError::NotTriangle`]) too, other lists skipped by their size.
+    fn binary_record<E: PropertyAccess>(
+        &mut self,
+        def: &ElementDef,
+        index: usize,
+        face_list: Option<&str>,
+        big: bool,
+    ) -> Result<E, PlyError> {
+        let mut rec = E::new();
+        for p in def.properties.values() {
+            let name = p.name.as_str();
+            match &p.data_type {
+                PropertyType::Scalar(t) => {
+                    self.binary_scalar(&mut rec, name, t, def, index, big)?
+                }
+                PropertyType::List(c, item) => {
+                    let n = self.list_count(def, index, c, big)?;
+                    if face_list == Some(name) {
+                        if n != 3 {
+                            return Err(PlyError::NotTriangle {
+                                file: self.file.to_owned(),
+                                face: index,
+                                count: usize::try_from(n).unwrap_or(usize::MAX),
+                            });
+                        }
+                        self.binary_face_list(&mut rec, name, item, def, index, big)?;
+                    } else {
+                        let bytes = n * scalar_bytes(item);
+                        let skipped = self
+                            .skip_bytes(bytes)
+                            .map_err(|e| self.io_error(def, index, &e))?;
+                        if skipped < bytes {
+                            return Err(self.truncated(def, index));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(rec)
+    }
+
+    fn binary_scalar<E: PropertyAccess>(
+        &mut self,
+        rec: &mut E,
+        name: &str,
+        t: &ScalarType,
+        def: &ElementDef,
+        index: usize,
+        big: bool,
+    ) -> Result<(), PlyError> {
+        macro_rules! get {
+            ($ty:ty, $n:literal) => {{
+                let b = self.take::<$n>(def, index)?;
+                if big {
+                    <$ty>::from_be_bytes(b)
+                } else {
+                    <$ty>::from_le_bytes(b)
+                }
+            }};
+        }
+        match t {
+            ScalarType::Char => rec.set_char(name, get!(i8, 1)),
+            ScalarType::UChar => rec.set_uchar(name, get!(u8, 1)),
+            ScalarType::Short => rec.set_short(name, get!(i16, 2)),
+            ScalarType::UShort => rec.set_ushort(name, get!(u16, 2)),
+            ScalarType::Int => rec.set_int(name, get!(i32, 4)),
+            ScalarType::UInt => rec.set_uint(name, get!(u32, 4)),
+            ScalarType::Float => rec.set_float(name, get!(f32, 4)),
+            ScalarType::Double => rec.set_double(name, get!(f64, 8)),
+        };
+        Ok(())
+    }
+
+    /// The three entries of a face list, of integer type `item` (checked by [`check_face`]).
+    fn binary_face_list<E: PropertyAccess>(
+        &mut self,
+        rec: &mut E,
+        name: &str,
+        item: &ScalarType,
+        def: &ElementDef,
+        index: usize,
+        big: bool,
+    ) -> Result<(), PlyError> {
+        macro_rules! three {
+            ($ty:ty, $n:literal) => {{
+                let mut v = Vec::with_capacity(3);
+                for _ in 0..3 {
+                    let b = self.take::<$n>(def, index)?;
+                    v.push(if big {
+                        <$ty>::from_be_bytes(b)
+                    } else {
+                        <$ty>::from_le_bytes(b)
+                    });
+                }
+                v
+            }};
+        }
+        match item {
+            ScalarType::Char => rec.set_list_char(name, three!(i8, 1)),
+            ScalarType::UChar => rec.set_list_uchar(name, three!(u8, 1)),
+            ScalarType::Short => rec.set_list_short(name, three!(i16, 2)),
+            ScalarType::UShort => rec.set_list_ushort(name, three!(u16, 2)),
+            ScalarType::Int => rec.set_list_int(name, three!(i32, 4)),
+            ScalarType::UInt => rec.set_list_uint(name, three!(u32, 4)),
+            ScalarType::Float | ScalarType::Double => {
+                return Err(self.body_error(def, index, "face indices must be integers".into()))
+            }
+        };
         Ok(())
     }
 
@@ -578,15 +1125,10 @@ impl<B: BufRead> Body<'_, B> {
         })
     }
 
-    fn binary_error(&self, def: &ElementDef, index: usize, e: &ParseError) -> PlyError {
-        if e.kind() == io::ErrorKind::UnexpectedEof {
-            self.truncated(def, index)
-        } else {
-            self.body_error(def, index, flatten(e))
-        }
-    }
-
     fn io_error(&self, def: &ElementDef, index: usize, e: &io::Error) -> PlyError {
+        if let Some(limit) = capped(self.file, e) {
+            return limit;
+        }
         if e.kind() == io::ErrorKind::UnexpectedEof {
             self.truncated(def, index)
         } else {

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use pocketsplat_core::camera::{self, Placement};
 use pocketsplat_core::qs::{
     render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions, MAGIC,
@@ -21,11 +21,8 @@ use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
 /// # Errors
 /// When the file cannot be opened.
 pub fn is_qs(path: &Path) -> Result<bool> {
-    use std::io::Read;
     let mut magic = [0u8; 8];
-    let mut f = std::fs::File::open(path)
-        .map_err(|e| anyhow::anyhow!("cannot open {}: {e}", path.display()))?;
-    let n = f.read(&mut magic).unwrap_or(0);
+    let n = crate::fsutil::read_magic(path, &mut magic)?;
     Ok((n == 8 && magic == MAGIC)
         || path
             .extension()
@@ -37,7 +34,7 @@ pub fn is_qs(path: &Path) -> Result<bool> {
 /// # Errors
 /// When the file cannot be read or is not a valid `.qs` file.
 pub fn read_qs(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsutil::read_file(path)?;
     QSplat::open(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(bytes)
 }

@@ -92,6 +92,8 @@ fn bake_a_very_large_mesh() {
         .arg("-v")
         .arg(env!("CARGO_BIN_EXE_pocketsplat"))
         .args(["bake", ply.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        // Past the default limits (32M triangles, 1G of bake memory): see the README's Limits.
+        .args(["--limits", "vertices=1G,triangles=1G", "--force"])
         .status()
         .expect("/usr/bin/time runs");
     let _ = std::fs::remove_file(&out);

@@ -7,7 +7,10 @@ use std::path::{Path, PathBuf};
 use flate2::write::GzEncoder;
 use flate2::Compression;
 use pocketsplat_core::bake::{MeshError, TriMesh};
-use pocketsplat_sim::ply::{load_mesh, load_mesh_from_reader, PlyError};
+use pocketsplat_sim::limits::Limits;
+use pocketsplat_sim::ply::{
+    load_mesh, load_mesh_from_reader, load_mesh_from_reader_with, PlyError,
+};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -650,9 +653,21 @@ fn empty_mesh() {
 #[test]
 fn truncated_body() {
     let dir = tempfile::tempdir().unwrap();
-    // ASCII: a missing line, and a last line cut short.
+    // ASCII: a missing line, and a last line cut short. From a file the header's counts are
+    // checked against its length first; from a reader of unknown length the body is read.
     let ply = minimal_ascii("0 0 0\n1 0 0\n", "", 3, 1);
-    let err = load_err(dir.path(), "short.ply", ply.as_bytes(), &["vertex 2 of 3"]);
+    let err = load_err(
+        dir.path(),
+        "short.ply",
+        ply.as_bytes(),
+        &["3 'vertex' records", "only 12 bytes follow"],
+    );
+    assert!(
+        matches!(err, PlyError::TooShort { needed: 19, .. }),
+        "{err:?}"
+    );
+    let err = load_mesh_from_reader("short.ply", ply.as_bytes()).unwrap_err();
+    assert!(err.to_string().contains("vertex 2 of 3"), "{err}");
     assert!(
         matches!(&err, PlyError::Truncated { element, index: 2, count: 3, .. } if element == "vertex"),
         "{err:?}"
@@ -761,9 +776,19 @@ fn damaged_files_never_panic() {
              property float z\nelement face 18446744073709551615\nproperty list uint int vertex_indices\n\
              element nothing 18446744073709551615\nend_header\n0 0 0\n"
         );
+        // Over the `vertices` limit at once; without limits, more than the body can hold.
         let err = load_mesh_from_reader("huge.ply", ply.as_bytes()).unwrap_err();
         assert!(
-            matches!(err, PlyError::Truncated { .. } | PlyError::Body { .. }),
+            matches!(&err, PlyError::Limit { error, .. } if error.name == "vertices"),
+            "{format}: {err:?}"
+        );
+        let err =
+            load_mesh_from_reader_with("huge.ply", ply.as_bytes(), &Limits::NONE).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                PlyError::Truncated { .. } | PlyError::Body { .. } | PlyError::TooShort { .. }
+            ),
             "{format}: {err:?}"
         );
     }

@@ -11,7 +11,155 @@ use pocketsplat_core::qs::write::{bake_qs, BakedQs, QsBakeOptions};
 use pocketsplat_core::tg::write::write_tg;
 
 use crate::fsutil::write_atomic;
-use crate::ply;
+use crate::{limits, ply};
+
+/// What a bake is expected to produce and to need, estimated before it starts.
+///
+/// A probe bakes the same mesh a few levels deep (at most about 10⁴ cells at its last level), then
+/// the count of non-empty cells is extrapolated: once cells are smaller than the surface's
+/// features a surface crosses about ρ² of the ρ³ children of each cell it crosses, so each level
+/// has α ≈ ρ² times the cells of the one above (Duguet & Drettakis §4.3), and never more than
+/// ρ³ᴸ. Memory counts the mesh and what the baker builds from it (vertex normals, triangle lists),
+/// every level twice (children's levels are concatenated into their parent's), the normal cones
+/// and the file: 5 to 25 % above the peak resident size measured on the bunny (ρ 2 to 5, depth 4
+/// to 10) and the dragon (ρ 3, depth 6), up to 45 % above for bakes of a few tens of MB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeEstimate {
+    /// Samples (non-empty cells) per level, 0..=depth; exact down to `probe_depth`.
+    pub samples: Vec<u64>,
+    /// Depth of the probe: levels below it are extrapolated.
+    pub probe_depth: u8,
+    /// Bytes of the `.tg` file.
+    pub file_bytes: u64,
+    /// Bytes of memory at the peak, the mesh included.
+    pub memory_bytes: u64,
+}
+
+impl BakeEstimate {
+    /// Samples in all levels.
+    pub fn total_samples(&self) -> u64 {
+        self.samples.iter().fold(0u64, |a, &n| a.saturating_add(n))
+    }
+
+    /// `Err` naming the estimate, the `bake` limit and the ways past it when the memory is over
+    /// `limit`.
+    ///
+    /// # Errors
+    /// When `memory_bytes > limit`.
+    pub fn check(&self, limit: u64, depth: u8) -> Result<()> {
+        if self.memory_bytes <= limit {
+            return Ok(());
+        }
+        bail!(
+            "depth {depth} would make about {} samples, a {} file, and need about {} of memory, \
+             over the limit bake={} (bake less deep, or pass --force, or raise it with --limits \
+             bake=SIZE)",
+            approx(self.total_samples() as f64, ""),
+            approx(self.file_bytes as f64, "B"),
+            approx(self.memory_bytes as f64, "B"),
+            crate::args::format_size(limit)
+        )
+    }
+}
+
+/// The program itself, its buffers and the probe bake.
+const BASE_BYTES: f64 = 16.0 * 1024.0 * 1024.0;
+
+/// `1.2 G` style: three significant figures and a 1024-power prefix.
+fn approx(v: f64, unit: &str) -> String {
+    let mut v = v;
+    for prefix in ["", "K", "M", "G", "T", "P", "E"] {
+        if v < 1024.0 {
+            return format!("{v:.3} {prefix}{unit}").replace(".000 ", " ");
+        }
+        v /= 1024.0;
+    }
+    format!("{v:.0} Z{unit}")
+}
+
+/// Estimates a bake of `mesh` (see [`BakeEstimate`]).
+///
+/// # Errors
+/// When the mesh is invalid.
+///
+/// # Panics
+/// When `opts.rho` is outside 2..=5 or `opts.depth` above the format's maximum (as the baker).
+pub fn estimate_bake(mesh: &TriMesh, opts: BakeOptions) -> Result<BakeEstimate> {
+    let rho = f64::from(opts.rho);
+    // Largest probe with at most ~10⁴ surface cells at its last level.
+    let probe_depth = (0..=opts.depth)
+        .take_while(|&k| rho.powi(2 * i32::from(k)) <= 1e4)
+        .last()
+        .unwrap_or(0);
+    let probe = bake_grid(
+        mesh,
+        BakeOptions {
+            rho: opts.rho,
+            depth: probe_depth,
+        },
+        None,
+    )?;
+    let mut samples: Vec<f64> = probe.levels.iter().map(|l| l.attrs.len() as f64).collect();
+    for level in probe_depth + 1..=opts.depth {
+        let prev = samples.last().copied().unwrap_or(1.0);
+        samples.push((prev * rho * rho).min(rho.powi(3 * i32::from(level))));
+    }
+    let colors = if mesh.colors.is_some() { 2.0 } else { 0.0 };
+    let mask_file = match opts.rho {
+        2 => 1.0,
+        3 => 4.0,
+        4 => 8.0,
+        _ => 16.0,
+    };
+    let depth = usize::from(opts.depth);
+    let (mut file, mut grid) = (0.0, 0.0);
+    for (level, &n) in samples.iter().enumerate() {
+        file += n * (2.0 + colors);
+        grid += n * (2.0 + colors);
+        if level < depth {
+            file += n * mask_file;
+            grid += n * 16.0;
+        }
+        if level + 1 < depth {
+            file += n * 4.0;
+        }
+    }
+    // Cones, block CRCs and padding: a tenth more.
+    let file = file * 1.1 + 65536.0;
+    let (v, t) = (mesh.positions.len() as f64, mesh.triangles.len() as f64);
+    let mesh_bytes = v * (24.0 + 3.0) + t * (12.0 + 1.0);
+    let baker = v * 24.0 + t * 4.0 + 2.0 * t * 4.0;
+    // Normal cones (ρ = 3) are built per cell while the file is written: about 20 bytes a sample
+    // at the peak, measured on the bunny at depths 6 and 7.
+    let cones = if opts.rho == 3 { 20.0 } else { 0.0 } * samples.iter().sum::<f64>();
+    let memory = mesh_bytes + baker + 2.0 * grid + file + cones + BASE_BYTES;
+    let to_u64 = |x: f64| {
+        if x >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            x as u64
+        }
+    };
+    Ok(BakeEstimate {
+        samples: samples.into_iter().map(to_u64).collect(),
+        probe_depth,
+        file_bytes: to_u64(file),
+        memory_bytes: to_u64(memory),
+    })
+}
+
+/// The bake progress bar on stderr (drawn only when stderr is a terminal).
+pub fn progress_bar(what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(1);
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{{spinner}} baking{what} {{bar:40}} {{pos}}/{{len}} cells ({{eta}} left)"
+        ))
+        .expect("static template")
+        .progress_chars("=> "),
+    );
+    bar
+}
 
 /// What `bake` produced, for the caller to print or measure.
 pub struct BakeReport {
@@ -35,17 +183,7 @@ pub fn bake_mesh(
     block_log2: u8,
     progress: bool,
 ) -> Result<(BakedGrid, Vec<u8>)> {
-    let bar = progress.then(|| {
-        let bar = ProgressBar::new(1);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} baking {bar:40} {pos}/{len} cells ({eta} left)",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
-        );
-        bar
-    });
+    let bar = progress.then(|| progress_bar(""));
     let cb = |done: u64, total: u64| {
         if let Some(bar) = &bar {
             bar.set_length(total);
@@ -70,9 +208,29 @@ pub fn bake_file(
     block_log2: u8,
     progress: bool,
 ) -> Result<BakeReport> {
+    bake_file_within(mesh_path, opts, block_log2, progress, u64::MAX)
+}
+
+/// [`bake_file`], refused before it starts when its [`estimate_bake`] of memory is over
+/// `memory_limit` bytes.
+///
+/// # Errors
+/// As [`bake_file`], and the estimate over the limit.
+pub fn bake_file_within(
+    mesh_path: &Path,
+    opts: BakeOptions,
+    block_log2: u8,
+    progress: bool,
+    memory_limit: u64,
+) -> Result<BakeReport> {
     let t0 = Instant::now();
     let mesh = ply::load_mesh(mesh_path)?;
     let load = t0.elapsed();
+    if memory_limit < u64::MAX {
+        estimate_bake(&mesh, opts)
+            .and_then(|e| e.check(memory_limit, opts.depth))
+            .with_context(|| format!("{}: cannot bake", mesh_path.display()))?;
+    }
     let t1 = Instant::now();
     let (grid, bytes) = bake_mesh(&mesh, opts, block_log2, progress)
         .with_context(|| format!("{}: cannot bake", mesh_path.display()))?;
@@ -143,6 +301,7 @@ pub fn run(
     depth: u8,
     block_size: u32,
     format: &str,
+    force: bool,
 ) -> Result<()> {
     match format {
         "tg" => {}
@@ -162,7 +321,12 @@ pub fn run(
         bail!("--block-size {block_size}: must be a power of two from 512 to 65536");
     }
     let block_log2 = block_size.trailing_zeros() as u8;
-    let report = bake_file(mesh, BakeOptions { rho, depth }, block_log2, true)?;
+    let limit = if force {
+        u64::MAX
+    } else {
+        limits::current().bake
+    };
+    let report = bake_file_within(mesh, BakeOptions { rho, depth }, block_log2, true, limit)?;
     write_atomic(out, &report.bytes)?;
     let leaves = report.grid.levels.last().map_or(0, |l| l.attrs.len());
     let total: usize = report.grid.levels.iter().map(|l| l.attrs.len()).sum();

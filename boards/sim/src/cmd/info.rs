@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use pocketsplat_core::qs::{ByteOrder, QSplat};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
@@ -229,7 +229,7 @@ fn run_qs(path: &Path, json: bool) -> Result<()> {
 /// # Errors
 /// When the file cannot be read or is not a valid `.tg` file.
 pub fn read_tg(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsutil::read_file(path)?;
     TriGrid::open(&bytes, Verify::Full).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(bytes)
 }

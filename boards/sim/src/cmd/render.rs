@@ -17,26 +17,7 @@ use crate::reference::{ShadowLight, ShadowRays};
 use crate::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 use crate::{image, ply, reference};
 
-/// Parses `A,B` or `A,B,C` numbers (views and lights).
-///
-/// # Errors
-/// When the text is not `n` comma-separated finite numbers.
-pub fn parse_numbers<const N: usize>(what: &str, text: &str) -> Result<[f64; N]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != N {
-        bail!("{what} {text:?}: expected {N} comma-separated numbers");
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p
-            .parse::<f64>()
-            .map_err(|e| anyhow::anyhow!("{what} {text:?}: {p:?} is not a number ({e})"))?;
-        if !o.is_finite() {
-            bail!("{what} {text:?}: {p:?} is not finite");
-        }
-    }
-    Ok(out)
-}
+pub use crate::args::parse_numbers;
 
 /// Parses a view: a standard view's name or `AZ,EL,DIST`.
 ///
@@ -79,11 +60,8 @@ pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<Shadow
 
 /// Is this path a `.tg` file (by its magic), rather than a mesh?
 fn is_tg(path: &Path) -> Result<bool> {
-    use std::io::Read;
     let mut magic = [0u8; 4];
-    let mut f = std::fs::File::open(path)
-        .map_err(|e| anyhow::anyhow!("cannot open {}: {e}", path.display()))?;
-    let n = f.read(&mut magic).unwrap_or(0);
+    let n = crate::fsutil::read_magic(path, &mut magic)?;
     Ok(n == 4 && magic == pocketsplat_core::tg::MAGIC)
 }
 
@@ -123,8 +101,7 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
         return Ok(());
     }
     if is_tg(input)? {
-        let bytes = std::fs::read(input)
-            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", input.display()))?;
+        let bytes = crate::fsutil::read_file(input)?;
         let grid = TriGrid::open(&bytes, Verify::Full)
             .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
         let mut fb = FrameBuffers::new();

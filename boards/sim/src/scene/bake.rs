@@ -44,6 +44,8 @@ pub struct BakeOverrides {
     pub max_depth: Option<u8>,
     /// `min_cell_px` instead of the scene's (0 keeps every level).
     pub min_cell_px: Option<f64>,
+    /// Bake even when the estimate of the memory the objects' bakes need is over the `bake` limit.
+    pub force: bool,
 }
 
 /// The depth of a `to_rho` grid whose cells per axis (`to_rho^d`) are nearest those of a `rho` grid
@@ -160,8 +162,7 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
                 (None, None)
             }
             Source::File(path) => {
-                let bytes = std::fs::read(path)
-                    .with_context(|| format!("{}: cannot read {}", what(), path.display()))?;
+                let bytes = crate::fsutil::read_file(path).with_context(what)?;
                 TriGrid::open(&bytes, Verify::Full)
                     .map_err(|e| anyhow::anyhow!("{}: {}: {e}", what(), path.display()))?;
                 (None, Some(bytes))
@@ -442,6 +443,54 @@ pub fn bake_loaded(
         .map(|(n, _)| f.materials[n].material())
         .collect();
 
+    // The depth each mesh object is baked at, and the estimate of them all before any starts.
+    let asked_depth = |o: &super::ObjectSpec| {
+        depth_near(
+            f.bake.rho,
+            o.depth
+                .unwrap_or(6)
+                .min(overrides.max_depth.unwrap_or(u8::MAX)),
+            rho,
+        )
+    };
+    // Every mesh object is estimated (a shallow probe each) before any is baked; past the `bake`
+    // limit only with `force`. The estimates also say which objects get a progress bar.
+    let limit = crate::limits::current().bake;
+    let mut estimates = Vec::new();
+    let mut files = 0u64;
+    for (o, l) in f.objects.iter().zip(objects) {
+        let Some(mesh) = &l.mesh else {
+            estimates.push(None);
+            continue;
+        };
+        let depth = asked_depth(o);
+        let at = |e: anyhow::Error| {
+            anyhow::anyhow!("{}: object {:?}: {e}", scene.path.display(), o.name)
+        };
+        let e = crate::cmd::bake::estimate_bake(mesh, BakeOptions { rho, depth }).map_err(at)?;
+        if !overrides.force {
+            e.check(limit, depth).map_err(at)?;
+        }
+        files = files.saturating_add(e.file_bytes);
+        estimates.push(Some(e));
+    }
+    // The packed files of every object are held together at the end.
+    if !overrides.force && files > limit {
+        bail!(
+            "{}: the objects' files would take about {} MB together, over the limit bake={} \
+             (bake less deep, or pass --force, or raise it with --limits bake=SIZE)",
+            scene.path.display(),
+            files >> 20,
+            crate::args::format_size(limit)
+        );
+    }
+    let long = |i: usize| {
+        estimates
+            .get(i)
+            .and_then(Option::as_ref)
+            .is_some_and(|e| e.total_samples() > 1 << 20)
+    };
+
     let mut pack_objects = Vec::new();
     let mut reports = Vec::new();
     for (i, (o, l)) in f.objects.iter().zip(objects).enumerate() {
@@ -454,15 +503,22 @@ pub fn bake_loaded(
         };
         let (data, asked, kept, savings, samples) = match (&l.mesh, &l.tg) {
             (Some(mesh), _) => {
-                let asked = depth_near(
-                    f.bake.rho,
-                    o.depth
-                        .unwrap_or(6)
-                        .min(overrides.max_depth.unwrap_or(u8::MAX)),
-                    rho,
-                );
-                let mut grid = bake_grid(mesh, BakeOptions { rho, depth: asked }, None)
+                let asked = asked_depth(o);
+                let bar =
+                    long(i).then(|| crate::cmd::bake::progress_bar(&format!(" {:?}", o.name)));
+                let cb = |done: u64, total: u64| {
+                    if let Some(bar) = &bar {
+                        bar.set_length(total);
+                        bar.set_position(done);
+                    }
+                };
+                let progress: Option<pocketsplat_core::bake::BakeProgress<'_>> =
+                    bar.as_ref().map(|_| &cb as _);
+                let mut grid = bake_grid(mesh, BakeOptions { rho, depth: asked }, progress)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", what()))?;
+                if let Some(bar) = bar {
+                    bar.finish_and_clear();
+                }
                 let had_color = grid.levels[0].colors.is_some();
                 let with_color = if had_color {
                     Some(write_tg(&grid, block_log2).with_context(what)?.len())

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use pocketsplat_core::camera::View;
 use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::scene::{ram_budget, Pack, PackShadows, Scene, MAGIC};
@@ -27,11 +27,8 @@ pub fn is_scene_file(path: &Path) -> bool {
 /// Whether `path` is a scene pack (by its magic). A file that cannot be opened is not one (the
 /// caller's own reader then names the problem).
 pub fn is_pack(path: &Path) -> bool {
-    use std::io::Read;
     let mut magic = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok_and(|()| magic == MAGIC)
+    crate::fsutil::read_magic(path, &mut magic).is_ok_and(|n| n == 4 && magic == MAGIC)
 }
 
 /// Whether the command line names `flag` (`--flag VALUE` or `--flag=VALUE`): for a pack, options
@@ -48,7 +45,7 @@ pub fn flag_given(flag: &str) -> bool {
 /// # Errors
 /// When the file cannot be read, or the pack or an object's file is invalid.
 pub fn read_pack(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsutil::read_file(path)?;
     open_scene(path, &bytes)?;
     Ok(bytes)
 }
@@ -66,10 +63,14 @@ pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Scene<'a>> {
 ///
 /// # Errors
 /// Scene file, import and bake errors, naming the file and object; nothing is written then.
-pub fn bake(scene_path: &Path, out: &Path) -> Result<()> {
+pub fn bake(scene_path: &Path, out: &Path, force: bool) -> Result<()> {
     let t = Instant::now();
     let s = scene::Scene::load(scene_path)?;
-    let baked = bake_scene(&s, &BakeOverrides::default())?;
+    let overrides = BakeOverrides {
+        force,
+        ..BakeOverrides::default()
+    };
+    let baked = bake_scene(&s, &overrides)?;
     write_atomic(out, &baked.bytes)?;
     for o in &baked.objects {
         eprintln!(
@@ -159,7 +160,7 @@ fn shadows_name(s: PackShadows) -> &'static str {
 /// # Errors
 /// Bad arguments or input, naming the file; no output is written then.
 pub fn render(input: &Path, out: &Path, args: &RenderArgs) -> Result<()> {
-    let bytes = std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+    let bytes = crate::fsutil::read_file(input)?;
     let scene = open_scene(input, &bytes)?;
     let pack = scene.pack();
     let mut settings = PackSettings::new(parse_pack_view(pack, &args.view)?);
@@ -228,7 +229,7 @@ pub fn render(input: &Path, out: &Path, args: &RenderArgs) -> Result<()> {
 /// # Errors
 /// When the file cannot be read or is invalid.
 pub fn info(path: &Path, as_json: bool) -> Result<()> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsutil::read_file(path)?;
     let scene = open_scene(path, &bytes)?;
     let pack = scene.pack();
     let mut objects = Vec::new();

@@ -74,7 +74,7 @@ mod qs_tests;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use pocketsplat_core::camera::View;
 use pocketsplat_core::scene::{PackShadows, MAX_OBJECTS, MAX_SLOTS, NAME_BYTES};
 use pocketsplat_core::shade::Material;
@@ -454,8 +454,7 @@ impl Scene {
     /// TOML syntax and schema errors (with line and column), and every semantic problem, naming
     /// the file and the object, material or view.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
+        let text = crate::fsutil::read_scene_text(path)?;
         Self::parse(path, &text)
     }
 

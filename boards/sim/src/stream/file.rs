@@ -20,6 +20,13 @@ impl FileSource {
     /// # Errors
     /// When it cannot be opened.
     pub fn open(path: &Path) -> std::io::Result<Self> {
+        // A device or FIFO has no blocks to seek to (and opening a FIFO blocks).
+        if !std::fs::metadata(path)?.is_file() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file",
+            ));
+        }
         let file = File::open(path)?;
         let len = file.metadata()?.len();
         Ok(Self {

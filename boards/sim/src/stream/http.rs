@@ -20,7 +20,7 @@ const TIMEOUT: Duration = Duration::from_secs(10);
 /// Why a range could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum HttpError {
-    /// The URL is not `http://host[:port]/path`.
+    /// The URL is not `http://host[:port]/path` (an IPv6 host in brackets: `http://[::1]:8080/x`).
     #[error("{0:?} is not an http://host[:port]/path URL")]
     BadUrl(String),
     /// Connecting, sending or receiving failed.
@@ -72,11 +72,32 @@ impl HttpSource {
             Some(i) => (&rest[..i], &rest[i..]),
             None => (rest, "/"),
         };
-        let (host, port) = match authority.rsplit_once(':') {
-            Some((h, p)) => (h, p.parse::<u16>().map_err(|_| bad())?),
-            None => (authority, 80),
+        // An IPv6 literal is bracketed (RFC 3986 §3.2.2), so that its colons are not the port's.
+        let (host, port) = if let Some(rest) = authority.strip_prefix('[') {
+            let (h, after) = rest.split_once(']').ok_or_else(bad)?;
+            if h.parse::<std::net::Ipv6Addr>().is_err() {
+                return Err(bad());
+            }
+            match after {
+                "" => (h, 80),
+                p => (
+                    h,
+                    p.strip_prefix(':')
+                        .and_then(|p| p.parse::<u16>().ok())
+                        .ok_or_else(bad)?,
+                ),
+            }
+        } else {
+            match authority.rsplit_once(':') {
+                Some((h, p)) => (h, p.parse::<u16>().map_err(|_| bad())?),
+                None => (authority, 80),
+            }
         };
-        if host.is_empty() || path.contains(char::is_whitespace) {
+        let bracketed = authority.starts_with('[');
+        if host.is_empty()
+            || (!bracketed && host.contains([':', '[', ']']))
+            || path.contains(char::is_whitespace)
+        {
             return Err(bad());
         }
         Ok(Self {
@@ -93,13 +114,34 @@ impl HttpSource {
         s.starts_with("http://")
     }
 
+    /// `host:port` as the `Host` header writes it (an IPv6 literal in brackets).
+    fn authority(&self) -> String {
+        if self.host.contains(':') {
+            format!("[{}]:{}", self.host, self.port)
+        } else {
+            format!("{}:{}", self.host, self.port)
+        }
+    }
+
     fn connect(&mut self) -> Result<&mut BufReader<TcpStream>, HttpError> {
         if self.conn.is_none() {
-            let addr = (self.host.as_str(), self.port)
-                .to_socket_addrs()?
-                .next()
-                .ok_or_else(|| HttpError::BadUrl(format!("{}:{}", self.host, self.port)))?;
-            let s = TcpStream::connect_timeout(&addr, TIMEOUT)?;
+            // Every address the name has, in order (`localhost` may give ::1 before 127.0.0.1).
+            let mut last = None;
+            let mut stream = None;
+            for addr in (self.host.as_str(), self.port).to_socket_addrs()? {
+                match TcpStream::connect_timeout(&addr, TIMEOUT) {
+                    Ok(s) => {
+                        stream = Some(s);
+                        break;
+                    }
+                    Err(e) => last = Some(e),
+                }
+            }
+            let s = match (stream, last) {
+                (Some(s), _) => s,
+                (None, Some(e)) => return Err(e.into()),
+                (None, None) => return Err(HttpError::BadUrl(self.authority())),
+            };
             s.set_read_timeout(Some(TIMEOUT))?;
             s.set_write_timeout(Some(TIMEOUT))?;
             s.set_nodelay(true)?;
@@ -138,8 +180,9 @@ impl HttpSource {
         }
         let last = offset + buf.len() as u64 - 1;
         let request = format!(
-            "GET {} HTTP/1.1\r\nHost: {}:{}\r\nRange: bytes={offset}-{last}\r\nUser-Agent: pocketsplat\r\n\r\n",
-            self.path, self.host, self.port
+            "GET {} HTTP/1.1\r\nHost: {}\r\nRange: bytes={offset}-{last}\r\nUser-Agent: pocketsplat\r\n\r\n",
+            self.path,
+            self.authority()
         );
         let result = self.exchange(request.as_bytes(), offset, last, buf);
         if result.is_err() {
@@ -271,7 +314,20 @@ mod tests {
         );
         let s = HttpSource::new("http://example.invalid").unwrap();
         assert_eq!((s.port, s.path.as_str()), (80, "/"));
+        let s = HttpSource::new("http://[::1]:8080/x.tg").unwrap();
+        assert_eq!(
+            (s.host.as_str(), s.port, s.path.as_str(), s.authority()),
+            ("::1", 8080, "/x.tg", "[::1]:8080".to_string())
+        );
+        let s = HttpSource::new("http://[fe80::1]/").unwrap();
+        assert_eq!((s.host.as_str(), s.port), ("fe80::1", 80));
         for bad in [
+            "http://[::1/x",
+            "http://[::1]x/y",
+            "http://[::1]:/y",
+            "http://[nope]:80/y",
+            "http://::1:80/y",
+            "http://[]:80/y",
             "https://x/y",
             "http://:80/a",
             "http://x:port/a",
@@ -303,6 +359,44 @@ mod tests {
             206
         );
         assert!(parse_status("SPDY 206\r\n").is_err());
+    }
+
+    /// `http://[::1]:PORT/...` reaches a server on the IPv6 loopback, with the bracketed `Host`.
+    #[test]
+    fn ipv6_literal_urls_connect() {
+        use std::net::TcpListener;
+        let Ok(listener) = TcpListener::bind("[::1]:0") else {
+            eprintln!("note: no IPv6 loopback here; skipping");
+            return;
+        };
+        let port = listener.local_addr().unwrap().port();
+        let server = std::thread::spawn(move || {
+            let (s, _) = listener.accept().unwrap();
+            let mut r = BufReader::new(s.try_clone().unwrap());
+            let mut host = String::new();
+            loop {
+                let mut l = String::new();
+                r.read_line(&mut l).unwrap();
+                if l.trim().is_empty() {
+                    break;
+                }
+                if let Some(h) = l.strip_prefix("Host: ") {
+                    host = h.trim().to_string();
+                }
+            }
+            let mut w = s;
+            write!(
+                w,
+                "HTTP/1.1 206 Partial Content\r\nContent-Length: 4\r\nContent-Range: bytes 0-3/10\r\n\r\nPSTG"
+            )
+            .unwrap();
+            host
+        });
+        let mut src = HttpSource::new(&format!("http://[::1]:{port}/x.tg")).unwrap();
+        let mut buf = [0u8; 4];
+        src.read_at(0, &mut buf).unwrap();
+        assert_eq!(&buf, b"PSTG");
+        assert_eq!(server.join().unwrap(), format!("[::1]:{port}"));
     }
 
     /// A one-connection server on loopback that answers two ranges on the same connection, then

@@ -1,7 +1,7 @@
 //! The streaming frame loop on the desktop: memory for a [`TgStream`], one frame drawn from what is
 //! resident, and `render --stream` (draw, serve the budget, repeat until a frame misses nothing).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use pocketsplat_core::camera::Camera;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
@@ -31,11 +31,14 @@ impl OwnedStream {
     /// down to whole blocks, at least 4 blocks) and one table entry per block.
     ///
     /// # Errors
-    /// When the header cannot be read or is invalid.
+    /// When the header cannot be read or is invalid, or claims a file over the `stream` limit.
     pub fn new<C: ChunkSource + ?Sized>(src: &mut C, cache_bytes: usize) -> Result<Self> {
         let mut scratch = vec![0u8; MAX_BLOCK];
         let (header, _, _) =
             read_tg_header(src, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
+        // One table entry per block of the file the header claims: bounded before it is allocated.
+        let claimed = u64::from(header.blocks) << header.block_log2;
+        crate::limits::current().check("stream", "the file size its header claims", claimed)?;
         let bs = header.block_size();
         let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
         Ok(Self {
@@ -174,22 +177,4 @@ pub fn stream_render<C: ChunkSource + ?Sized>(
     outcome.resident_blocks = stream.cache().resident();
     outcome.cache_blocks = stream.cache().capacity();
     Ok(outcome)
-}
-
-/// Parses a byte count with an optional K or M suffix (powers of 1024).
-///
-/// # Errors
-/// When it is not one.
-pub fn parse_bytes(what: &str, text: &str) -> Result<usize> {
-    let t = text.trim();
-    let (num, mul) = match t.chars().last() {
-        Some('k' | 'K') => (&t[..t.len() - 1], 1024),
-        Some('m' | 'M') => (&t[..t.len() - 1], 1024 * 1024),
-        _ => (t, 1),
-    };
-    let n: usize = num
-        .parse()
-        .with_context(|| format!("{what} {text:?}: not a byte count (e.g. 65536, 64K, 4M)"))?;
-    n.checked_mul(mul)
-        .with_context(|| format!("{what} {text:?}: too large"))
 }

@@ -11,7 +11,7 @@ mod state;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::tg::{TriGrid, Verify};
@@ -169,7 +169,7 @@ pub fn run(input: &Path, opts: &ViewOptions) -> Result<()> {
             bail!("--target-fps {fps}: must be a positive number");
         }
     }
-    let bytes = std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+    let bytes = crate::fsutil::read_file(input)?;
     let mut scene = open_scene(input, &bytes)?;
     let name = input.file_name().map_or_else(
         || input.display().to_string(),
