@@ -58,6 +58,13 @@ pub trait ChunkSource {
     fn mapped(&self) -> Option<&[u8]> {
         None
     }
+
+    /// The file's length in bytes, when the medium knows it without a read (a file system, a
+    /// slice, a server's `Content-Range` seen on an earlier read). Opening a stream checks the
+    /// header's block count against it before anything is sized by that count.
+    fn byte_len(&self) -> Option<u64> {
+        None
+    }
 }
 
 impl<T: ChunkSource + ?Sized> ChunkSource for &mut T {
@@ -67,6 +74,9 @@ impl<T: ChunkSource + ?Sized> ChunkSource for &mut T {
     }
     fn mapped(&self) -> Option<&[u8]> {
         (**self).mapped()
+    }
+    fn byte_len(&self) -> Option<u64> {
+        (**self).byte_len()
     }
 }
 
@@ -107,6 +117,9 @@ impl ChunkSource for MemSource<'_> {
     }
     fn mapped(&self) -> Option<&[u8]> {
         Some(self.bytes)
+    }
+    fn byte_len(&self) -> Option<u64> {
+        Some(self.bytes.len() as u64)
     }
 }
 
