@@ -14,6 +14,9 @@
 //!   visible block is missing it prefetches the rest of the file coarse-to-fine.
 //! - A block that fails its CRC, or whose read fails, is absent: it is retried later with an
 //!   exponential backoff, counted in [`StreamCounters`], and the frame is drawn coarser meanwhile.
+//!   So is a block whose CRC is right but whose structure is not (`tg::read::check_block`); rules
+//!   that span blocks are checked as the walk uses them, and a frame never visits more nodes than
+//!   the file has samples (FORMAT.md "Validation").
 //!
 //! ```
 //! use pocketsplat_core::stream::{ChunkSource, MemSource};
