@@ -195,15 +195,26 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
         // frame needs them (a converged one would have stopped above), so it never converges.
         let c = *stream.counters();
         if c.structure_errors > 0 || stream.inconsistent() > 0 {
+            let mut why = Vec::new();
+            if c.structure_errors > 0 {
+                why.push(format!(
+                    "{} blocks failed the structure check (child masks or sibling-group pointers \
+                     the format does not allow)",
+                    c.structure_errors
+                ));
+            }
+            if stream.inconsistent() > 0 {
+                why.push(format!(
+                    "frame {} refused {} descents into blocks that disagree (children outside \
+                     their level, sibling groups that overlap, run backwards or do not add up)",
+                    outcome.frames,
+                    stream.inconsistent()
+                ));
+            }
             bail!(
-                "the file is malformed: {} blocks failed the structure check (child masks or \
-                 sibling-group pointers the format does not allow) and frame {} refused {} \
-                 descents into blocks that disagree (children outside their level, sibling groups \
-                 that overlap or run backwards); `pocketsplat info` on the whole file names the \
-                 first fault",
-                c.structure_errors,
-                outcome.frames,
-                stream.inconsistent(),
+                "the file is malformed: {}; nothing was written (`pocketsplat info` on the whole \
+                 file names the first fault)",
+                why.join(", and ")
             );
         }
         if outcome.frames >= opts.max_frames {
