@@ -535,7 +535,8 @@ fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound
         for level in [1usize, 2] {
             let n = grid.level(level as u8).count;
             let below = grid.level(level as u8 + 2).count;
-            let cases: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 5] = [
+            type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+            let cases: [(&str, Damage); 5] = [
                 // Every cell's grandchildren are cell 0's: a DAG.
                 (
                     "all aliased to the first group",
