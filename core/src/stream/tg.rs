@@ -42,6 +42,11 @@ pub fn stream_priority(size_q8: i32, y_q8: i32) -> u32 {
 /// covers every block size), trying [`OPEN_ATTEMPTS`] times. Returns the header, the level
 /// directory and the number of failed attempts.
 ///
+/// A header that parses is then checked against the medium and itself, at once (a sealed header
+/// reads the same every time): its block count against [`ChunkSource::byte_len`] where the medium
+/// knows it ([`TgError::LengthMismatch`]), and its level counts against each other
+/// ([`crate::tg::read::check_counts`]), before anything is sized by them.
+///
 /// # Errors
 /// The last failure when every attempt failed: [`StreamError::Device`] for the medium,
 /// [`StreamError::Format`] for the header, [`StreamError::CacheTooSmall`] when `scratch` is smaller
