@@ -303,8 +303,17 @@ fn hostile_sources_give_errors_not_panics() {
         },
         &mut fb,
     );
+    // The header announces more than the source holds: an error at open (issue 17), before the
+    // block table is sized by it.
     let err = out.unwrap_err().to_string();
-    assert!(err.contains("did not converge in 200 frames"), "{err}");
+    assert!(
+        err.contains(&format!(
+            "file is {} bytes but the header announces {}",
+            cut.len(),
+            big.len()
+        )),
+        "{err}"
+    );
 }
 
 #[test]
@@ -364,4 +373,297 @@ fn close_view_reads_a_fraction_of_the_file_and_prefetch_fills_the_rest_coarse_fi
         "the whole file ends resident"
     );
     eprintln!("close view: {frames} frames, {read} of {} bytes", big.len());
+}
+
+// ---- Hostile files with valid CRCs (issue 17) ------------------------------------------------------
+//
+// Each file below is a real bake with one structural fault, every CRC recomputed (`seal`), so that
+// only the structure checks can catch it. The resident reader rejects every one; streamed, each must
+// end in a clear error (at open, or as a malformed block or inconsistent descent), never a panic, a
+// hang, a multi-gigabyte allocation or a frame of noise, and its frames stay within one visit per
+// sample.
+
+mod hostile {
+    use super::*;
+    pub use pocketsplat_core::tg::write::seal;
+    use pocketsplat_core::tg::{DIRECTORY_ENTRY, DIRECTORY_OFFSET};
+
+    /// The demo's trefoil as a tri-grid with cones, depth 4, blocks of `2^log2` bytes.
+    pub fn trefoil(log2: u8) -> Vec<u8> {
+        let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
+        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, log2, false)
+            .unwrap()
+            .1
+    }
+
+    pub fn u32_at(b: &[u8], at: usize) -> u32 {
+        u32::from_le_bytes(b[at..at + 4].try_into().unwrap())
+    }
+
+    pub fn put_u32(b: &mut [u8], at: usize, v: u32) {
+        b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    }
+
+    /// Byte offset of a level directory field: 0 count, 1 attributes, 2 colours, 3 masks, 4 groups.
+    pub fn dir_at(level: usize, field: usize) -> usize {
+        DIRECTORY_OFFSET + DIRECTORY_ENTRY * level + 4 * field
+    }
+
+    /// Byte offset of element `i` of directory array `field` (4-byte elements) at `level`.
+    pub fn elem(b: &[u8], level: usize, field: usize, i: u32) -> usize {
+        u32_at(b, dir_at(level, field)) as usize + 4 * i as usize
+    }
+
+    /// Streams `bytes` with the std view through `src`; checks the visit bound on every frame.
+    /// Returns the converged frame's CRC.
+    pub fn stream<C: ChunkSource>(bytes: &[u8], src: &mut C) -> Result<u32, String> {
+        let total: u64 = pocketsplat_core::tg::read::parse_header(bytes)
+            .map(|(_, d)| d.iter().map(|l| u64::from(l.count)).sum())
+            .unwrap_or(u64::MAX);
+        let settings = Settings::default();
+        let mut mem = OwnedStream::new(&mut *src, bytes.len()).map_err(|e| format!("{e:#}"))?;
+        let mut stream = mem.open(&mut *src).map_err(|e| format!("{e:#}"))?;
+        let cam = camera_for(&stream, &settings);
+        let mut table = Box::new(ShadingTable::<1>::new());
+        let mut fb = FrameBuffers::new();
+        for _ in 0..200 {
+            let stats = stream_frame(&mut stream, &cam, &settings, &mut table, &mut fb).unwrap();
+            assert!(
+                u64::from(stats.nodes_visited) <= total,
+                "{stats:?} > {total}"
+            );
+            if stream.converged() {
+                return Ok(fb.crc());
+            }
+            stream.serve(&mut *src, 64 * 1024);
+        }
+        let c = stream.counters();
+        let what = if c.structure_errors + c.inconsistent > 0 {
+            "malformed"
+        } else {
+            "no convergence"
+        };
+        Err(format!(
+            "{what}: {} structure errors, {} inconsistent descents",
+            c.structure_errors, c.inconsistent
+        ))
+    }
+
+    /// `bytes` must be rejected by the resident reader, and streamed (as a slice, and through
+    /// `stream_render` as the CLI does) end in an error containing one of `needles`, or, where the
+    /// std view never reads the damage, in exactly the frame of the undamaged file `base` (valid
+    /// data only).
+    pub fn rejected(what: &str, bytes: &[u8], base: &[u8], needles: &[&str]) {
+        assert!(
+            TriGrid::open(bytes, Verify::Full).is_err(),
+            "{what}: the resident reader opens it"
+        );
+        let clean = resident(base, &Settings::default()).0;
+        let err = match stream(bytes, &mut MemSource::new(bytes)) {
+            Ok(crc) => {
+                assert_eq!(crc, clean, "{what}: converged on a frame of damaged data");
+                eprintln!("{what}: the view does not read the damage; the clean frame");
+                return;
+            }
+            Err(e) => e,
+        };
+        assert!(
+            needles.iter().any(|n| err.contains(n)),
+            "{what}: {err:?} names none of {needles:?}"
+        );
+        let mut fb = FrameBuffers::new();
+        let t = std::time::Instant::now();
+        let err = stream_render(
+            &mut MemSource::new(bytes),
+            &Settings::default(),
+            &opts(1 << 20),
+            &mut fb,
+        )
+        .expect_err(what);
+        let err = format!("{err:#}");
+        assert!(
+            needles.iter().any(|n| err.contains(n)) || err.contains("malformed"),
+            "{what}: stream_render: {err}"
+        );
+        assert!(t.elapsed().as_secs() < 20, "{what}: took {:?}", t.elapsed());
+        eprintln!("{what}: {err}");
+    }
+}
+
+#[test]
+fn hostile_masks_with_valid_crcs_are_absent_not_a_panic() {
+    use hostile::*;
+    for log2 in [9u8, 12, 16] {
+        let base = trefoil(log2);
+        TriGrid::open(&base, Verify::Full).unwrap();
+        stream(&base, &mut MemSource::new(&base)).expect("the clean file converges");
+        for level in [0usize, 1, 2] {
+            for (bit, name) in [(31u32, "bit 31"), (30, "bit 30 (above the cone class)")] {
+                let mut b = base.clone();
+                let at = elem(&b, level, 3, 0);
+                let m = u32_at(&b, at);
+                put_u32(&mut b, at, m | 1 << bit);
+                seal(&mut b);
+                rejected(
+                    &format!("2^{log2} blocks, level {level} mask {name}"),
+                    &b,
+                    &base,
+                    &["malformed"],
+                );
+            }
+            // An empty mask below the depth.
+            let mut b = base.clone();
+            let at = elem(&b, level, 3, 0);
+            put_u32(&mut b, at, 0);
+            seal(&mut b);
+            rejected(
+                &format!("2^{log2} blocks, level {level} empty mask"),
+                &b,
+                &base,
+                &["malformed"],
+            );
+        }
+    }
+}
+
+#[test]
+fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound() {
+    use hostile::*;
+    for log2 in [9u8, 12, 16] {
+        let base = trefoil(log2);
+        let grid = TriGrid::open(&base, Verify::Full).unwrap();
+        for level in [1usize, 2] {
+            let n = grid.level(level as u8).count;
+            let below = grid.level(level as u8 + 2).count;
+            type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+            let cases: [(&str, Damage); 5] = [
+                // Every cell's grandchildren are cell 0's: a DAG.
+                (
+                    "all aliased to the first group",
+                    Box::new(move |b: &mut Vec<u8>| {
+                        for i in 0..n {
+                            let at = elem(b, level, 4, i);
+                            put_u32(b, at, 0);
+                        }
+                    }),
+                ),
+                // Two neighbours share their grandchildren.
+                (
+                    "one pair aliased",
+                    Box::new(move |b: &mut Vec<u8>| {
+                        let at = elem(b, level, 4, n / 2);
+                        let prev = u32_at(b, at - 4);
+                        put_u32(b, at, prev);
+                    }),
+                ),
+                // A pointer before its predecessor's.
+                (
+                    "backward",
+                    Box::new(move |b: &mut Vec<u8>| {
+                        let at = elem(b, level, 4, n / 2);
+                        let prev = u32_at(b, at - 4);
+                        put_u32(b, at, prev.saturating_sub(1));
+                    }),
+                ),
+                // Past the end of the level two below.
+                (
+                    "past the end",
+                    Box::new(move |b: &mut Vec<u8>| {
+                        let at = elem(b, level, 4, n - 1);
+                        put_u32(b, at, below + 5);
+                    }),
+                ),
+                // Each group moved back by one: every entry increases, none is the running count,
+                // so siblings' groups overlap by one cell (caught in the walk, across blocks too).
+                (
+                    "all shifted back by one",
+                    Box::new(move |b: &mut Vec<u8>| {
+                        for i in 1..n {
+                            let at = elem(b, level, 4, i);
+                            let g = u32_at(b, at);
+                            put_u32(b, at, g - 1);
+                        }
+                    }),
+                ),
+            ];
+            for (name, damage) in cases {
+                let mut b = base.clone();
+                damage(&mut b);
+                seal(&mut b);
+                rejected(
+                    &format!("2^{log2} blocks, level {level} groups {name}"),
+                    &b,
+                    &base,
+                    &["malformed", "inconsistent"],
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn hostile_counts_and_block_counts_fail_at_open_without_allocating() {
+    use hostile::*;
+    let base = trefoil(12);
+    let grid = TriGrid::open(&base, Verify::Full).unwrap();
+    // A level with fewer samples than its parent has cells, or more than ρ³ times: at open.
+    for (level, count) in [(2usize, grid.level(1).count - 1), (1, 28)] {
+        let mut b = base.clone();
+        put_u32(&mut b, dir_at(level, 0), count);
+        seal(&mut b);
+        rejected(
+            &format!("level {level} count {count}"),
+            &b,
+            &base,
+            &["samples, but", "misaligned"],
+        );
+    }
+    // One sample fewer at the finest level: within the bounds at open, but the last cell's
+    // children run past it (caught in the walk) or a group entry does (caught on arrival).
+    let depth = 4usize;
+    let mut b = base.clone();
+    put_u32(&mut b, dir_at(depth, 0), grid.level(depth as u8).count - 1);
+    seal(&mut b);
+    rejected(
+        "finest level one sample short",
+        &b,
+        &base,
+        &["malformed", "inconsistent"],
+    );
+    // A header with 64 KB blocks that declares 262 M blocks (the issue's 4.2 GB block table): the
+    // CRC table grows to the most the header can list, the arrays move past it, and the header is
+    // resealed. It must fail before the table is allocated, with or without a known length.
+    let base = trefoil(16);
+    let mut b = base.clone();
+    let old_t = u32_at(&b, 36);
+    let t = 16_000u32;
+    put_u32(&mut b, 32, t << 14);
+    put_u32(&mut b, 36, t);
+    let levels = usize::from(b[9]) + 1;
+    for l in 0..levels {
+        for f in 1..5 {
+            let off = u32_at(&b, dir_at(l, f));
+            if off != 0 {
+                put_u32(&mut b, dir_at(l, f), off + ((t - old_t) << 16));
+            }
+        }
+    }
+    let bs = 1usize << 16;
+    let c = pocketsplat_core::crc::crc32(&b[..bs - 4]);
+    b[bs - 4..bs].copy_from_slice(&c.to_le_bytes());
+    pocketsplat_core::tg::read::parse_header(&b).expect("the header itself is valid");
+    rejected("262 M blocks declared", &b, &base, &["header announces"]);
+    /// A source that does not know its length.
+    struct Unsized<'a>(MemSource<'a>);
+    impl ChunkSource for Unsized<'_> {
+        type Error = pocketsplat_core::stream::OutOfRange;
+        fn read_at(&mut self, o: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
+            self.0.read_at(o, buf)
+        }
+    }
+    let err = stream(&b, &mut Unsized(MemSource::new(&b))).unwrap_err();
+    assert!(
+        err.contains("the header announces 262144000 blocks"),
+        "{err}"
+    );
 }

@@ -80,6 +80,9 @@ pub enum PulledError<E> {
 
 impl<S: ChunkSource> ChunkSource for Pulled<S> {
     type Error = PulledError<S::Error>;
+    fn byte_len(&self) -> Option<u64> {
+        self.inner.byte_len()
+    }
     fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
         self.reads = self.reads.saturating_add(1);
         if self.reads > PULLED_AFTER_READS {
@@ -370,11 +373,13 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         // drawn with what is resident, and says so on screen.
         // The marker stays up from a failed read until reads succeed again with none failing (a
         // pulled card keeps it up; a frame that reads nothing keeps what the last one showed).
+        // A block that arrived sealed but malformed counts as a failed read, and a frame that
+        // refused descents into inconsistent blocks is marked as long as it does (issue 17).
         let c = stream.counters();
-        let failed = c.read_errors + c.crc_errors - failed_before;
+        let failed = c.read_errors + c.crc_errors + c.structure_errors - failed_before;
         let read_ok = c.bytes_read > read_before;
         (failed_before, read_before) = (failed_before + failed, c.bytes_read);
-        marker = failed > 0 || (marker && !read_ok);
+        marker = failed > 0 || stream.inconsistent() > 0 || (marker && !read_ok);
         let mut fb = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth);
         if marker {
             draw_error_marker(&mut fb);

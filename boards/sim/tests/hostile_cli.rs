@@ -413,3 +413,83 @@ fn a_closed_stdout_is_not_a_crash() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+/// `render --stream` on `.tg` files whose CRCs are valid but whose structure is not (issue 17): a
+/// child mask with bits at or above ρ³, sibling-group pointers that alias one subtree or run
+/// backwards, a level count out of range, a header that declares more blocks than the file holds.
+/// The resident reader rejects each; streamed, each must fail with a message and write no PNG.
+#[test]
+fn streamed_hostile_files_fail_cleanly_and_write_no_png() {
+    use pocketsplat_core::bake::BakeOptions;
+    use pocketsplat_core::tg::write::seal;
+    use pocketsplat_core::tg::{TriGrid, Verify, DIRECTORY_ENTRY, DIRECTORY_OFFSET};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
+    let base =
+        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
+            .unwrap()
+            .1;
+    let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    let put = |b: &mut [u8], at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    let dir_at =
+        |level: usize, field: usize| DIRECTORY_OFFSET + DIRECTORY_ENTRY * level + 4 * field;
+    let elem = |b: &[u8], level: usize, field: usize, i: u32| {
+        u32_at(b, dir_at(level, field)) as usize + 4 * i as usize
+    };
+    let grid = TriGrid::open(&base, Verify::Full).unwrap();
+    let n1 = grid.level(1).count;
+    let mut cases: Vec<(&str, Vec<u8>, &str)> = Vec::new();
+    let mut b = base.clone();
+    let at = elem(&b, 1, 3, 0);
+    let m = u32_at(&b, at);
+    put(&mut b, at, m | 1 << 31);
+    cases.push(("mask-bit31.tg", b, "malformed"));
+    let mut b = base.clone();
+    for i in 0..n1 {
+        let at = elem(&b, 1, 4, i);
+        put(&mut b, at, 0);
+    }
+    cases.push(("aliased.tg", b, "malformed"));
+    let mut b = base.clone();
+    let at = elem(&b, 1, 4, n1 / 2);
+    let prev = u32_at(&b, at - 4);
+    put(&mut b, at, prev - 1);
+    cases.push(("backward.tg", b, "malformed"));
+    let mut b = base.clone();
+    put(&mut b, dir_at(2, 0), grid.level(1).count - 1);
+    cases.push(("count.tg", b, "samples, but the level above announces"));
+    let mut b = base[..base.len() / 2].to_vec();
+    seal(&mut b);
+    cases.push(("short.tg", b, "but the header announces"));
+    for (name, mut bytes, needle) in cases {
+        if name != "short.tg" {
+            seal(&mut bytes);
+        }
+        assert!(TriGrid::open(&bytes, Verify::Full).is_err(), "{name}");
+        std::fs::write(d.join(name), &bytes).unwrap();
+        let t = Instant::now();
+        fails(
+            d,
+            &[
+                "render",
+                name,
+                "--stream",
+                "-o",
+                "out.png",
+                "--max-frames",
+                "100000",
+            ],
+            &[name, needle],
+        );
+        assert!(
+            t.elapsed() < Duration::from_secs(30),
+            "{name}: {:?}",
+            t.elapsed()
+        );
+    }
+    // The clean file streams and writes its PNG.
+    std::fs::write(d.join("clean.tg"), &base).unwrap();
+    succeeds(d, &["render", "clean.tg", "--stream", "-o", "out.png"]);
+    assert!(d.join("out.png").exists());
+}

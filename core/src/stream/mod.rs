@@ -14,6 +14,9 @@
 //!   visible block is missing it prefetches the rest of the file coarse-to-fine.
 //! - A block that fails its CRC, or whose read fails, is absent: it is retried later with an
 //!   exponential backoff, counted in [`StreamCounters`], and the frame is drawn coarser meanwhile.
+//!   So is a block whose CRC is right but whose structure is not (`tg::read::check_block`); rules
+//!   that span blocks are checked as the walk uses them, and a frame never visits more nodes than
+//!   the file has samples (FORMAT.md "Validation").
 //!
 //! ```
 //! use pocketsplat_core::stream::{ChunkSource, MemSource};
@@ -58,6 +61,13 @@ pub trait ChunkSource {
     fn mapped(&self) -> Option<&[u8]> {
         None
     }
+
+    /// The file's length in bytes, when the medium knows it without a read (a file system, a
+    /// slice, a server's `Content-Range` seen on an earlier read). Opening a stream checks the
+    /// header's block count against it before anything is sized by that count.
+    fn byte_len(&self) -> Option<u64> {
+        None
+    }
 }
 
 impl<T: ChunkSource + ?Sized> ChunkSource for &mut T {
@@ -67,6 +77,9 @@ impl<T: ChunkSource + ?Sized> ChunkSource for &mut T {
     }
     fn mapped(&self) -> Option<&[u8]> {
         (**self).mapped()
+    }
+    fn byte_len(&self) -> Option<u64> {
+        (**self).byte_len()
     }
 }
 
@@ -107,6 +120,9 @@ impl ChunkSource for MemSource<'_> {
     }
     fn mapped(&self) -> Option<&[u8]> {
         Some(self.bytes)
+    }
+    fn byte_len(&self) -> Option<u64> {
+        Some(self.bytes.len() as u64)
     }
 }
 

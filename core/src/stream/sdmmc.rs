@@ -79,6 +79,10 @@ where
         }
         Ok(())
     }
+
+    fn byte_len(&self) -> Option<u64> {
+        self.len().ok().map(u64::from)
+    }
 }
 
 /// A clock for a read-only volume manager: every timestamp is the FAT epoch (nothing is written, so

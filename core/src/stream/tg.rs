@@ -7,7 +7,7 @@ use super::cache::{BlockCache, BlockEntry, SlotEntry, NOT_QUEUED, NO_SLOT};
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
 use crate::splat::{SplatSink, Stats};
-use crate::tg::read::{parse_header, Header, LevelDir};
+use crate::tg::read::{check_block, check_counts, parse_header, Header, LevelDir};
 use crate::tg::traverse::{render_nodes, NoShadows, NodeData, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
 
@@ -42,6 +42,11 @@ pub fn stream_priority(size_q8: i32, y_q8: i32) -> u32 {
 /// covers every block size), trying [`OPEN_ATTEMPTS`] times. Returns the header, the level
 /// directory and the number of failed attempts.
 ///
+/// A header that parses is then checked against the medium and itself, at once (a sealed header
+/// reads the same every time): its block count against [`ChunkSource::byte_len`] where the medium
+/// knows it ([`TgError::LengthMismatch`]), and its level counts against each other
+/// ([`crate::tg::read::check_counts`]), before anything is sized by them.
+///
 /// # Errors
 /// The last failure when every attempt failed: [`StreamError::Device`] for the medium,
 /// [`StreamError::Format`] for the header, [`StreamError::CacheTooSmall`] when `scratch` is smaller
@@ -53,7 +58,20 @@ pub fn read_tg_header<C: ChunkSource + ?Sized>(
     let mut last = StreamError::Format(TgError::TooShort(0));
     for attempt in 0..OPEN_ATTEMPTS {
         match try_header(src, scratch) {
-            Ok((h, d)) => return Ok((h, d, attempt)),
+            Ok((h, d)) => {
+                // Bound what the header sizes (the block table, the walk) by the source before
+                // anything is allocated from it: a header that parses is sealed, so these faults
+                // do not go away on a second read.
+                let expected = u64::from(h.blocks) << h.block_log2;
+                if let Some(found) = src.byte_len().filter(|&n| n != expected) {
+                    return Err(StreamError::Format(TgError::LengthMismatch {
+                        expected,
+                        found,
+                    }));
+                }
+                check_counts(&h, &d).map_err(StreamError::Format)?;
+                return Ok((h, d, attempt));
+            }
             Err(e @ StreamError::CacheTooSmall { .. }) => return Err(e),
             Err(e) => last = e,
         }
@@ -101,6 +119,13 @@ pub struct StreamCounters {
     pub read_errors: u32,
     /// Blocks that arrived but failed their CRC.
     pub crc_errors: u32,
+    /// Blocks that passed their CRC but not the structure check ([`check_block`]): absent, as if
+    /// damaged.
+    pub structure_errors: u32,
+    /// Descents the walk refused because what it read from several resident blocks disagrees
+    /// (children outside their level, sibling groups that overlap or run backwards, more nodes than
+    /// the file holds): the cell is drawn instead, and the frame does not converge.
+    pub inconsistent: u32,
     /// Blocks evicted to make room.
     pub evictions: u32,
     /// Blocks read by prefetch (nothing visible was missing).
@@ -117,7 +142,7 @@ pub struct ServeReport {
     pub reads: u32,
     /// Bytes read.
     pub bytes: u32,
-    /// Reads that failed or arrived damaged.
+    /// Reads that failed or arrived damaged (CRC or structure).
     pub failed: u32,
     /// Reads that were prefetches.
     pub prefetched: u32,
@@ -142,11 +167,17 @@ struct Level {
 #[derive(Debug)]
 pub struct TgStream<'a> {
     header: Header,
+    dirs: [LevelDir; MAX_LEVELS],
     levels: [Level; MAX_LEVELS],
+    /// Samples in the file: the most nodes a frame may visit (FORMAT.md: one visit per sample).
+    samples: u64,
     cache: BlockCache<'a>,
     queue: Vec<Request, QUEUE_CAPACITY>,
-    /// Blocks the last frame wanted (queued or dropped): 0 means it was drawn at full detail.
+    /// Blocks the last frame wanted (queued or dropped) plus the descents it refused as
+    /// inconsistent: 0 means it was drawn at full detail.
     missing: u32,
+    /// Descents the last frame refused as inconsistent.
+    inconsistent: u32,
     frame: u32,
     counters: StreamCounters,
 }
@@ -192,7 +223,10 @@ impl<'a> TgStream<'a> {
         }
         let mut s = TgStream {
             header,
+            dirs,
             levels,
+            samples: dirs.iter().map(|d| u64::from(d.count)).sum(),
+            inconsistent: 0,
             cache,
             queue: Vec::new(),
             missing: 1,
@@ -322,6 +356,12 @@ impl<'a> TgStream<'a> {
         self.missing
     }
 
+    /// Descents the last frame refused because resident blocks disagree (see
+    /// [`StreamCounters::inconsistent`]); such a frame never counts as converged.
+    pub fn inconsistent(&self) -> u32 {
+        self.inconsistent
+    }
+
     /// Whether the last frame was drawn at full detail: nothing it wanted was absent, so it is the
     /// frame the fully resident file gives.
     pub fn converged(&self) -> bool {
@@ -350,10 +390,18 @@ impl<'a> TgStream<'a> {
         }
         self.queue.clear();
         let mut dropped = 0u32;
+        let mut inconsistent = 0u32;
+        // Light-ordered levels visit siblings out of index order: there only the node budget holds.
+        let in_order = (0..self.header.levels()).all(|l| !hooks.ordered(l));
         let mut nodes = StreamNodes {
             cache: &mut self.cache,
             queue: &mut self.queue,
             dropped: &mut dropped,
+            inconsistent: &mut inconsistent,
+            next_free: [0; MAX_LEVELS],
+            in_order,
+            // The root is visited without a descent.
+            nodes_left: self.samples.saturating_sub(1),
             levels: self.levels,
             rho: self.header.rho,
             depth: self.header.depth,
@@ -369,7 +417,9 @@ impl<'a> TgStream<'a> {
             Stats::default()
         };
         self.counters.dropped += dropped;
-        self.missing = self.queue.len() as u32 + dropped;
+        self.counters.inconsistent += inconsistent;
+        self.inconsistent = inconsistent;
+        self.missing = self.queue.len() as u32 + dropped + inconsistent;
         stats
     }
 
@@ -419,6 +469,11 @@ impl<'a> TgStream<'a> {
                 }
                 Ok(()) if crc32(buf) != want => {
                     self.counters.crc_errors += 1;
+                    false
+                }
+                // Sealed but malformed: absent, exactly as a damaged block (issue 17).
+                Ok(()) if check_block(&self.header, &self.dirs, b as u32, buf).is_err() => {
+                    self.counters.structure_errors += 1;
                     false
                 }
                 Ok(()) => true,
@@ -474,6 +529,16 @@ struct StreamNodes<'s, 'a> {
     cache: &'s mut BlockCache<'a>,
     queue: &'s mut Vec<Request, QUEUE_CAPACITY>,
     dropped: &'s mut u32,
+    /// Descents refused by [`StreamNodes::claim`].
+    inconsistent: &'s mut u32,
+    /// Per level, the index after the last sibling group this frame descended into there: a
+    /// depth-first walk in slot order meets each level's groups in index order, so a group that
+    /// starts before it overlaps one already visited (aliased or backward group pointers).
+    next_free: [u32; MAX_LEVELS],
+    /// Whether the walk visits siblings in slot order (no light-ordered levels).
+    in_order: bool,
+    /// Nodes this frame may still enter by descents: the file's samples less those entered.
+    nodes_left: u64,
     levels: [Level; MAX_LEVELS],
     rho: u8,
     depth: u8,
@@ -485,6 +550,29 @@ struct StreamNodes<'s, 'a> {
 type Ranges = [(u64, u64); 3];
 
 impl StreamNodes<'_, '_> {
+    /// Whether the walk may enter the `n` cells from `first` at `level` (a sibling group): they lie
+    /// inside the level, after every group already entered there this frame (each cell has one
+    /// parent, so a valid file never enters a cell twice), and within the frame's node budget. This
+    /// is what makes a frame's work bounded by the file's sample count whatever the pointers say:
+    /// every node but the root is entered through one accepted claim.
+    #[inline]
+    fn claim(&mut self, level: u8, first: u32, n: u32) -> bool {
+        let l = usize::from(level);
+        let (Some(dir), Some(&free)) = (self.levels.get(l), self.next_free.get(l)) else {
+            return false;
+        };
+        let end = u64::from(first) + u64::from(n);
+        if end > u64::from(dir.count)
+            || (self.in_order && first < free)
+            || u64::from(n) > self.nodes_left
+        {
+            return false;
+        }
+        self.next_free[l] = end as u32;
+        self.nodes_left -= u64::from(n);
+        true
+    }
+
     /// What reading samples `first..first + n` of level `level` needs, plus the group pointer of
     /// cell `parent` on the level above when those samples have grandchildren.
     fn ranges(&self, level: u8, first: u32, n: u32, parent: Option<u32>) -> Ranges {
@@ -496,10 +584,37 @@ impl StreamNodes<'_, '_> {
             r[1] = (l.mask + self.mask_bytes * first, self.mask_bytes * n);
         }
         if let (Some(p), true) = (parent, level < self.depth) {
+            // The parent's group entry and the next cell's, which ends the parent's grandchildren
+            // (`group_consistent`); the level's count ends the last cell's.
             let up = &self.levels[usize::from(level) - 1];
-            r[2] = (up.group + 4 * u64::from(p), 4);
+            let len = if p + 1 < up.count { 8 } else { 4 };
+            r[2] = (up.group + 4 * u64::from(p), len);
         }
         r
+    }
+
+    /// Whether the group entry of cell `index` at `level` (resident, as the masks of its `n`
+    /// children from `first`) spans exactly its children's children: it ends where the next cell's
+    /// entry starts, or at the end of the level two below for the last cell (FORMAT.md "Group").
+    /// With [`StreamNodes::claim`] this catches aliased, backward and skewed pointers between
+    /// blocks that each passed [`check_block`]; a whole run of entries shifted alike is only caught
+    /// where the walk reaches one of its ends.
+    fn group_consistent(&self, level: u8, index: u32, first: u32, n: u32) -> bool {
+        let l = usize::from(level);
+        if l + 2 > usize::from(self.depth) {
+            return true;
+        }
+        let slots = if self.rho == 2 { 0xFF } else { (1 << 27) - 1 };
+        let mut below = u64::from(self.group(level, index));
+        for k in first..first.saturating_add(n) {
+            below += u64::from((self.mask(level + 1, k) & slots).count_ones());
+        }
+        let end = if index + 1 < self.levels[l].count {
+            self.group(level, index + 1)
+        } else {
+            self.levels[l + 2].count
+        };
+        below == u64::from(end)
     }
 
     /// Every block of `ranges`, once each in order.
@@ -645,8 +760,19 @@ impl NodeData for StreamNodes<'_, '_> {
     }
 
     fn children_resident(&mut self, level: u8, index: u32, first_child: u32, n: u32) -> bool {
+        if !self.claim(level + 1, first_child, n) {
+            *self.inconsistent += 1;
+            return false;
+        }
         let r = self.ranges(level + 1, first_child, n, Some(index));
-        self.resident(&r)
+        if !self.resident(&r) {
+            return false;
+        }
+        if !self.group_consistent(level, index, first_child, n) {
+            *self.inconsistent += 1;
+            return false;
+        }
+        true
     }
 
     fn request_children(

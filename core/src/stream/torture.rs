@@ -29,6 +29,9 @@ impl<S> Chunked<S> {
 
 impl<S: ChunkSource> ChunkSource for Chunked<S> {
     type Error = S::Error;
+    fn byte_len(&self) -> Option<u64> {
+        self.inner.byte_len()
+    }
     fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), S::Error> {
         let end = offset + buf.len() as u64;
         let mut cuts = offset;
@@ -105,6 +108,9 @@ impl<S> Flaky<S> {
 
 impl<S: ChunkSource> ChunkSource for Flaky<S> {
     type Error = FlakyError<S::Error>;
+    fn byte_len(&self) -> Option<u64> {
+        self.inner.byte_len()
+    }
     fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
         self.reads += 1;
         let roll = (self.next() % 100) as u32;

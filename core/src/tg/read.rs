@@ -511,6 +511,136 @@ fn check_directory(h: &Header, levels: &[LevelDir; MAX_LEVELS]) -> Result<(), Tg
     Ok(())
 }
 
+// ---- structure rules shared by the resident and the streaming reader ------------------------------
+
+/// The lowest mask-word bit that must be clear: ρ³, or above the cone class (bits 27..30) in a file
+/// with cones (FORMAT.md "Child mask", "Normal cone").
+fn spare_free(h: &Header) -> u32 {
+    if h.has_cones() {
+        CONE_SHIFT + 3
+    } else {
+        u32::from(h.rho).pow(3)
+    }
+}
+
+/// Whether a stored mask word is one the format allows at a level below the depth: at least one
+/// child, no bit at or above [`spare_free`].
+fn mask_word_ok(h: &Header, word: u128) -> bool {
+    let cells = u32::from(h.rho).pow(3);
+    let slots = if cells < 128 {
+        word & ((1u128 << cells) - 1)
+    } else {
+        word
+    };
+    let free = spare_free(h);
+    slots != 0 && (free >= 128 || word >> free == 0)
+}
+
+/// Checks the level counts of a header against each other, before anything is sized by them: every
+/// cell below the depth has between 1 and ρ³ children, so `count[L] ≤ count[L+1] ≤ ρ³·count[L]`.
+/// (The resident reader finds the same faults later, as exact popcount mismatches; a streaming
+/// reader, which never holds every mask at once, checks these bounds when it opens.)
+///
+/// # Errors
+/// [`TgError::CountMismatch`] naming the first level out of bounds and the bound it breaks.
+pub fn check_counts(h: &Header, levels: &[LevelDir; MAX_LEVELS]) -> Result<(), TgError> {
+    let cells = u64::from(u32::from(h.rho).pow(3));
+    for l in 0..usize::from(h.depth) {
+        let (up, found) = (u64::from(levels[l].count), levels[l + 1].count);
+        let expected = if u64::from(found) < up {
+            up
+        } else if u64::from(found) > up * cells {
+            up * cells
+        } else {
+            continue;
+        };
+        return Err(TgError::CountMismatch {
+            level: l as u8 + 1,
+            expected: expected.min(u64::from(u32::MAX)) as u32,
+            found,
+        });
+    }
+    Ok(())
+}
+
+/// Checks the structure that one block of a file holds by itself, as a streaming reader receives it
+/// (its CRC already checked): every child mask in `bytes` (block `block` of the file) has at least
+/// one child and no bit the format keeps clear (as [`TriGrid::open`]); every group entry in it lies
+/// inside the level two below, the first one of a level is 0, and each is above its predecessor by
+/// between 1 and ρ⁶ (a cell's children have at least one and at most ρ³·ρ³ children in all), and the
+/// last one leaves 1 to ρ⁶ grandchildren for its cell. What needs other blocks (that each entry is
+/// exactly the running count of the masks it stands for) is checked when the walk uses it
+/// (`crate::stream`).
+///
+/// `levels` must have passed [`parse_header`] (arrays inside the file).
+///
+/// # Errors
+/// [`TgError::BadMask`] or [`TgError::BadGroup`] for the first offending cell.
+pub fn check_block(
+    h: &Header,
+    levels: &[LevelDir; MAX_LEVELS],
+    block: u32,
+    bytes: &[u8],
+) -> Result<(), TgError> {
+    let start = u64::from(block) << h.block_log2;
+    let end = start + bytes.len() as u64;
+    let mb = u64::from(h.mask_bytes());
+    let cells = u64::from(u32::from(h.rho).pow(3));
+    // The indices of an array of `count` elements of `size` bytes at `off` that lie in this block
+    // (arrays are 16-byte aligned and blocks a multiple of 16 bytes: no element straddles two).
+    let span = |off: u32, count: u32, size: u64| -> (u32, u32) {
+        let off = u64::from(off);
+        let stop = off + u64::from(count) * size;
+        if off == 0 || stop <= start || off >= end {
+            return (0, 0);
+        }
+        let first = start.saturating_sub(off) / size;
+        let last = (end.min(stop) - off) / size;
+        (first as u32, last as u32)
+    };
+    let at = |off: u32, i: u32, size: u64| (u64::from(off) + u64::from(i) * size - start) as usize;
+    for l in 0..h.depth {
+        let dir = levels[usize::from(l)];
+        let (first, last) = span(dir.mask_off, dir.count, mb);
+        for i in first..last {
+            let k = at(dir.mask_off, i, mb);
+            let mut word = [0u8; 16];
+            let src = bytes
+                .get(k..k + mb as usize)
+                .ok_or(TgError::BadMask { level: l, index: i })?;
+            word[..mb as usize].copy_from_slice(src);
+            if !mask_word_ok(h, u128::from_le_bytes(word)) {
+                return Err(TgError::BadMask { level: l, index: i });
+            }
+        }
+    }
+    let per_cell = cells * cells;
+    for l in 0..h.depth.saturating_sub(1) {
+        let dir = levels[usize::from(l)];
+        let below = u64::from(levels[usize::from(l) + 2].count);
+        let (first, last) = span(dir.group_off, dir.count, 4);
+        let mut prev: Option<u64> = None;
+        for i in first..last {
+            let bad = TgError::BadGroup { level: l, index: i };
+            let g = u64::from(u32_at(bytes, at(dir.group_off, i, 4)).ok_or(bad)?);
+            let after_prev = prev.is_none_or(|p| g > p && g - p <= per_cell);
+            let is_last = i + 1 == dir.count;
+            let room = below.saturating_sub(g);
+            if (i == 0 && g != 0)
+                || g < u64::from(i)
+                || g > u64::from(i) * per_cell
+                || g >= below
+                || !after_prev
+                || (is_last && room > per_cell)
+            {
+                return Err(bad);
+            }
+            prev = Some(g);
+        }
+    }
+    Ok(())
+}
+
 impl<'a> TriGrid<'a> {
     /// Opens a memory-resident `.tg` file, checking it once as [`Verify`] says.
     ///
@@ -567,16 +697,12 @@ impl<'a> TriGrid<'a> {
     /// Recomputes every count and group pointer from the masks (FORMAT.md "Validation").
     fn check_structure(&self) -> Result<(), TgError> {
         let h = self.header;
-        let cells = u32::from(h.rho).pow(3);
-        // The bits above the slots: 0, but for the cone class where the file has cones.
-        let spare_free = if h.has_cones() { CONE_SHIFT + 3 } else { cells };
         for l in 0..h.depth {
             let (level, dir) = (l, self.levels[usize::from(l)]);
             let mut children = 0u32;
             for i in 0..dir.count {
-                let word = self.mask_word(l, i);
                 let m = self.mask(l, i);
-                if m == 0 || (spare_free < 128 && word >> spare_free != 0) {
+                if !mask_word_ok(&h, self.mask_word(l, i)) {
                     return Err(TgError::BadMask { level, index: i });
                 }
                 children = children.saturating_add(m.count_ones());

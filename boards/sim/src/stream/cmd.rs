@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use serde_json::json;
 
+use super::run::stream_render_with;
 use super::{stream_render, FileSource, HttpSource, StreamOptions, StreamOutcome};
 use crate::image;
 use crate::render::{FrameBuffers, Settings};
@@ -27,8 +28,15 @@ pub fn run(
     let mut fb = FrameBuffers::new();
     let (outcome, http) = if HttpSource::is_url(input) {
         let mut src = HttpSource::new(input)?;
-        let o =
-            stream_render(&mut src, settings, opts, &mut fb).with_context(|| input.to_string())?;
+        // A server that ignores ranges or misses a deadline ends the render with its error.
+        let o = stream_render_with(&mut src, settings, opts, &mut fb, |s| {
+            if let Some(why) = s.fatal() {
+                anyhow::bail!("{why}");
+            }
+            s.begin_frame();
+            Ok(())
+        })
+        .with_context(|| input.to_string())?;
         (o, Some(src.counters))
     } else {
         let mut src =

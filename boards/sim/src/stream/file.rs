@@ -58,4 +58,7 @@ impl ChunkSource for FileSource {
         self.file.seek(SeekFrom::Start(offset))?;
         self.file.read_exact(buf)
     }
+    fn byte_len(&self) -> Option<u64> {
+        Some(self.len)
+    }
 }

@@ -5,20 +5,31 @@
 //! kept-alive `TcpStream`, accepts only `206 Partial Content` with the exact `Content-Range` and
 //! `Content-Length` asked for, and counts every byte on the wire, which is the figure the streaming
 //! report needs. A connection the server closed is reopened once per read.
+//!
+//! Every request has an overall deadline ([`REQUEST_DEADLINE`]), and so have the reads of one frame
+//! ([`HttpSource::begin_frame`], [`FRAME_DEADLINE`]): a server that stalls or drips bytes is given up
+//! on, with an error that says which server did what. Such an error, or a server that ignores byte
+//! ranges, is also kept as [`HttpSource::fatal`], for a frame loop that should stop rather than
+//! retry the block forever.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use pocketsplat_core::stream::ChunkSource;
 
 /// Longest response head accepted.
 const MAX_HEAD: usize = 16 * 1024;
-/// Connect, read and write timeout.
+/// Connect, read and write timeout of one socket operation.
 const TIMEOUT: Duration = Duration::from_secs(10);
+/// Longest one range request may take, head and body, by default.
+pub const REQUEST_DEADLINE: Duration = Duration::from_secs(30);
+/// Longest the reads between two [`HttpSource::begin_frame`] calls may take, by default.
+pub const FRAME_DEADLINE: Duration = Duration::from_secs(60);
 
-/// Why a range could not be read.
-#[derive(Debug, thiserror::Error)]
+/// Why a range could not be read. Its `Debug` is its message (the stream reports device errors
+/// with `{:?}`), written for people.
+#[derive(thiserror::Error)]
 pub enum HttpError {
     /// The URL is not `http://host[:port]/path` (an IPv6 host in brackets: `http://[::1]:8080/x`).
     #[error("{0:?} is not an http://host[:port]/path URL")]
@@ -26,12 +37,84 @@ pub enum HttpError {
     /// Connecting, sending or receiving failed.
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    /// The server answered with another status than 206 (200 means it ignores ranges).
-    #[error("HTTP status {0} (expected 206 Partial Content)")]
-    Status(u16),
+    /// The server answered a range request with a whole file: it does not serve byte ranges.
+    #[error(
+        "server at {server} sent {status} without a byte range for {path} (it ignores `Range:`; \
+         streaming needs 206 Partial Content)"
+    )]
+    NoRange {
+        /// `host:port`.
+        server: String,
+        /// The path asked for.
+        path: String,
+        /// The status it sent (200).
+        status: u16,
+    },
+    /// The server answered with another status than 206 or 200.
+    #[error("server at {server} answered {status} for bytes {first}-{last} of {path} (expected 206 Partial Content)")]
+    Status {
+        /// `host:port`.
+        server: String,
+        /// The path asked for.
+        path: String,
+        /// The status.
+        status: u16,
+        /// First byte asked for.
+        first: u64,
+        /// Last byte asked for.
+        last: u64,
+    },
+    /// The server did not complete a response within the deadline.
+    #[error(
+        "server at {server} sent {got} bytes in {secs} s for a {want}-byte range of {path}: gave up \
+         at the deadline per {per}"
+    )]
+    Stalled {
+        /// `host:port`.
+        server: String,
+        /// The path asked for.
+        path: String,
+        /// Bytes of the response (head and body) received by then.
+        got: u64,
+        /// Body bytes asked for.
+        want: u64,
+        /// Seconds the request ran.
+        secs: f64,
+        /// `"request"` or `"frame"`: which deadline ended it.
+        per: &'static str,
+    },
     /// The response is not well-formed HTTP/1.1, or not the range asked for.
     #[error("bad response: {0}")]
     BadResponse(String),
+}
+
+impl std::fmt::Debug for HttpError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
+/// The socket under a deadline: every read waits at most until the deadline, and counts what came.
+#[derive(Debug)]
+struct Wire {
+    s: TcpStream,
+    deadline: Option<Instant>,
+    got: u64,
+}
+
+impl Read for Wire {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if let Some(d) = self.deadline {
+            let left = d.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(std::io::ErrorKind::TimedOut.into());
+            }
+            self.s.set_read_timeout(Some(left.min(TIMEOUT)))?;
+        }
+        let n = self.s.read(buf)?;
+        self.got += n as u64;
+        Ok(n)
+    }
 }
 
 /// Counts of an [`HttpSource`].
@@ -55,7 +138,15 @@ pub struct HttpSource {
     host: String,
     port: u16,
     path: String,
-    conn: Option<BufReader<TcpStream>>,
+    conn: Option<BufReader<Wire>>,
+    /// The file's length, from the last `Content-Range`.
+    total: Option<u64>,
+    request_limit: Duration,
+    frame_limit: Duration,
+    frame_deadline: Option<Instant>,
+    fatal: Option<String>,
+    /// Response bytes the last request received (for [`HttpError::Stalled`]).
+    last_got: u64,
     /// What went over the wire so far.
     pub counters: HttpCounters,
 }
@@ -105,8 +196,38 @@ impl HttpSource {
             port,
             path: path.to_string(),
             conn: None,
+            total: None,
+            request_limit: REQUEST_DEADLINE,
+            frame_limit: FRAME_DEADLINE,
+            frame_deadline: None,
+            fatal: None,
+            last_got: 0,
             counters: HttpCounters::default(),
         })
+    }
+
+    /// Sets the deadline of one request and of one frame's reads (defaults [`REQUEST_DEADLINE`],
+    /// [`FRAME_DEADLINE`]).
+    pub fn with_deadlines(mut self, request: Duration, frame: Duration) -> Self {
+        self.request_limit = request;
+        self.frame_limit = frame;
+        self
+    }
+
+    /// Starts a frame: the reads until the next call share one deadline.
+    pub fn begin_frame(&mut self) {
+        self.frame_deadline = Some(Instant::now() + self.frame_limit);
+    }
+
+    /// The first error that retrying will not cure (a server that ignores ranges, or one that
+    /// missed a deadline), as its message.
+    pub fn fatal(&self) -> Option<&str> {
+        self.fatal.as_deref()
+    }
+
+    /// `host:port`.
+    fn server(&self) -> String {
+        format!("{}:{}", self.host, self.port)
     }
 
     /// Whether `s` looks like a URL this source takes.
@@ -123,7 +244,7 @@ impl HttpSource {
         }
     }
 
-    fn connect(&mut self) -> Result<&mut BufReader<TcpStream>, HttpError> {
+    fn connect(&mut self) -> Result<&mut BufReader<Wire>, HttpError> {
         if self.conn.is_none() {
             // Every address the name has, in order (`localhost` may give ::1 before 127.0.0.1).
             let mut last = None;
@@ -146,7 +267,14 @@ impl HttpSource {
             s.set_write_timeout(Some(TIMEOUT))?;
             s.set_nodelay(true)?;
             self.counters.connections += 1;
-            self.conn = Some(BufReader::with_capacity(64 * 1024, s));
+            self.conn = Some(BufReader::with_capacity(
+                64 * 1024,
+                Wire {
+                    s,
+                    deadline: None,
+                    got: 0,
+                },
+            ));
         }
         Ok(self.conn.as_mut().expect("connected above"))
     }
@@ -165,16 +293,45 @@ impl HttpSource {
         // A kept-alive connection may have been closed by the server since the last request: on an
         // I/O error before any of the response arrived, reconnect once.
         let reused = self.conn.is_some();
-        match self.try_range(offset, buf) {
-            Err(HttpError::Io(_)) if reused => {
+        let start = Instant::now();
+        let by_request = start + self.request_limit;
+        let (deadline, per) = match self.frame_deadline {
+            Some(f) if f < by_request => (f, "frame"),
+            _ => (by_request, "request"),
+        };
+        let r = match self.try_range(offset, buf, deadline) {
+            Err(HttpError::Io(e)) if reused && !timed_out(&e) && Instant::now() < deadline => {
                 self.conn = None;
-                self.try_range(offset, buf)
+                self.try_range(offset, buf, deadline)
             }
             r => r,
+        };
+        let r = match r {
+            Err(HttpError::Io(e)) if timed_out(&e) => Err(HttpError::Stalled {
+                server: self.server(),
+                path: self.path.clone(),
+                got: self.last_got,
+                want: buf.len() as u64,
+                secs: (Instant::now() - start).as_secs_f64().round_to_tenths(),
+                per,
+            }),
+            r => r,
+        };
+        if let Err(e @ (HttpError::Stalled { .. } | HttpError::NoRange { .. })) = &r {
+            self.fatal.get_or_insert_with(|| e.to_string());
         }
+        if let Ok(total) = r {
+            self.total = Some(total);
+        }
+        r
     }
 
-    fn try_range(&mut self, offset: u64, buf: &mut [u8]) -> Result<u64, HttpError> {
+    fn try_range(
+        &mut self,
+        offset: u64,
+        buf: &mut [u8],
+        deadline: Instant,
+    ) -> Result<u64, HttpError> {
         if buf.is_empty() {
             return Err(HttpError::BadResponse("empty range".into()));
         }
@@ -184,7 +341,11 @@ impl HttpSource {
             self.path,
             self.authority()
         );
-        let result = self.exchange(request.as_bytes(), offset, last, buf);
+        let result = self.exchange(request.as_bytes(), offset, last, buf, deadline);
+        self.last_got = self
+            .conn
+            .as_ref()
+            .map_or(self.last_got, |c| c.get_ref().got);
         if result.is_err() {
             // Unknown state of the stream: never reuse it.
             self.conn = None;
@@ -198,12 +359,17 @@ impl HttpSource {
         offset: u64,
         last: u64,
         buf: &mut [u8],
+        deadline: Instant,
     ) -> Result<u64, HttpError> {
+        let (server, path) = (self.server(), self.path.clone());
         let conn = self.connect()?;
-        conn.get_mut().write_all(request)?;
+        let wire = conn.get_mut();
+        wire.deadline = Some(deadline);
+        wire.got = 0;
+        wire.s.write_all(request)?;
         let mut head = 0usize;
         let mut line = String::new();
-        let mut read_line = |conn: &mut BufReader<TcpStream>, line: &mut String| {
+        let mut read_line = |conn: &mut BufReader<Wire>, line: &mut String| {
             line.clear();
             let n = conn.by_ref().take(8192).read_line(line)?;
             head += n;
@@ -245,8 +411,21 @@ impl HttpSource {
                 _ => {}
             }
         }
+        if status == 200 {
+            return Err(HttpError::NoRange {
+                server,
+                path,
+                status,
+            });
+        }
         if status != 206 {
-            return Err(HttpError::Status(status));
+            return Err(HttpError::Status {
+                server,
+                path,
+                status,
+                first: offset,
+                last,
+            });
         }
         if length != Some(buf.len() as u64) {
             return Err(HttpError::BadResponse(format!(
@@ -298,6 +477,28 @@ impl ChunkSource for HttpSource {
     type Error = HttpError;
     fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), HttpError> {
         self.range(offset, buf).map(|_| ())
+    }
+    fn byte_len(&self) -> Option<u64> {
+        self.total
+    }
+}
+
+/// Whether an I/O error is a socket timeout or [`Wire`]'s deadline.
+fn timed_out(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+    )
+}
+
+/// Seconds to one decimal, for messages.
+trait RoundToTenths {
+    fn round_to_tenths(self) -> f64;
+}
+
+impl RoundToTenths for f64 {
+    fn round_to_tenths(self) -> f64 {
+        (self * 10.0).round() / 10.0
     }
 }
 
@@ -451,5 +652,174 @@ mod tests {
         assert_eq!(src.counters.requests, 4);
         assert_eq!(src.counters.connections, 2);
         assert_eq!(src.counters.body, 512 + 1000 + 1000 + 3);
+    }
+
+    /// A server on loopback that answers every request on one connection with `respond`.
+    fn serve_with(
+        respond: impl Fn(&mut TcpStream, u64, u64) + Send + 'static,
+    ) -> (u16, std::thread::JoinHandle<()>) {
+        use std::net::TcpListener;
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let server = std::thread::spawn(move || {
+            let Ok((s, _)) = listener.accept() else {
+                return;
+            };
+            let mut r = BufReader::new(s.try_clone().unwrap());
+            let mut w = s;
+            loop {
+                let mut range = None;
+                loop {
+                    let mut l = String::new();
+                    if r.read_line(&mut l).unwrap_or(0) == 0 {
+                        return;
+                    }
+                    if l.trim().is_empty() {
+                        break;
+                    }
+                    if let Some(v) = l.strip_prefix("Range: bytes=") {
+                        let (a, b) = v.trim().split_once('-').unwrap();
+                        range = Some((a.parse().unwrap(), b.parse().unwrap()));
+                    }
+                }
+                let (a, b) = range.unwrap();
+                respond(&mut w, a, b);
+            }
+        });
+        (port, server)
+    }
+
+    #[test]
+    fn a_server_that_ignores_ranges_is_named() {
+        let (port, server) = serve_with(|w, _, _| {
+            let _ = w.write_all(b"HTTP/1.1 200 OK\r\nContent-Length: 4\r\n\r\nPSTG");
+        });
+        let mut src = HttpSource::new(&format!("http://127.0.0.1:{port}/m.tg")).unwrap();
+        let mut buf = [0u8; 512];
+        let err = src.read_at(0, &mut buf).unwrap_err();
+        let msg = err.to_string();
+        assert_eq!(
+            msg,
+            format!(
+                "server at 127.0.0.1:{port} sent 200 without a byte range for /m.tg (it ignores \
+                 `Range:`; streaming needs 206 Partial Content)"
+            )
+        );
+        assert_eq!(format!("{err:?}"), msg, "Debug is the message too");
+        assert_eq!(src.fatal(), Some(msg.as_str()));
+        drop(src);
+        server.join().unwrap();
+    }
+
+    #[test]
+    fn a_server_that_drips_is_given_up_on_at_the_request_and_the_frame_deadline() {
+        // 8 bytes of the head every 100 ms: each read succeeds, the request never ends.
+        let drip = |w: &mut TcpStream, a: u64, b: u64| {
+            let head = format!(
+                "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/1000000\r\n\r\n",
+                b + 1 - a
+            );
+            for chunk in head.as_bytes().chunks(8) {
+                if w.write_all(chunk).is_err() {
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        };
+        for (request, frame, per) in [(600u64, 60_000u64, "request"), (60_000, 400, "frame")] {
+            let (port, server) = serve_with(drip);
+            let mut src = HttpSource::new(&format!("http://127.0.0.1:{port}/m.tg"))
+                .unwrap()
+                .with_deadlines(Duration::from_millis(request), Duration::from_millis(frame));
+            src.begin_frame();
+            let t = Instant::now();
+            let mut buf = [0u8; 4096];
+            let err = src.read_at(0, &mut buf).unwrap_err().to_string();
+            let took = t.elapsed();
+            assert!(
+                took < Duration::from_millis(request.min(frame) + 500),
+                "{per}: took {took:?}"
+            );
+            let prefix = format!("server at 127.0.0.1:{port} sent ");
+            assert!(err.starts_with(&prefix), "{err}");
+            assert!(
+                err.ends_with(&format!(
+                    " s for a 4096-byte range of /m.tg: gave up at the deadline per {per}"
+                )) && err.contains(" bytes in "),
+                "{err}"
+            );
+            let got: u64 = err[prefix.len()..]
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!((8..100).contains(&got), "{err}");
+            assert!(src.fatal().is_some());
+            drop(src);
+            server.join().unwrap();
+        }
+    }
+
+    /// `render --stream` from a server that serves the header and CRC table as ranges, then
+    /// answers 200 with the whole file: the render stops with the server's fault, and writes
+    /// nothing.
+    #[test]
+    fn render_stream_stops_at_a_server_that_stops_serving_ranges() {
+        use std::sync::atomic::{AtomicU32, Ordering};
+        let mesh = crate::demo::trefoil(48, 6, 0.45);
+        let (_, file) = crate::cmd::bake::bake_mesh(
+            &mesh,
+            pocketsplat_core::bake::BakeOptions { rho: 3, depth: 3 },
+            9,
+            false,
+        )
+        .unwrap();
+        let served = std::sync::Arc::new(file.clone());
+        let requests = std::sync::Arc::new(AtomicU32::new(0));
+        let counted = requests.clone();
+        let (port, server) = serve_with(move |w, a, b| {
+            let (a, b) = (a as usize, b as usize);
+            let r = if counted.fetch_add(1, Ordering::SeqCst) < 3 {
+                let mut r = format!(
+                    "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/{}\r\n\r\n",
+                    b + 1 - a,
+                    served.len()
+                )
+                .into_bytes();
+                r.extend_from_slice(&served[a..=b]);
+                r
+            } else {
+                let mut r = format!(
+                    "HTTP/1.1 200 OK\r\nContent-Length: {}\r\n\r\n",
+                    served.len()
+                )
+                .into_bytes();
+                r.extend_from_slice(&served);
+                r
+            };
+            let _ = w.write_all(&r);
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.png");
+        let url = format!("http://127.0.0.1:{port}/m.tg");
+        let err = crate::stream::cmd::run(
+            &url,
+            &out,
+            &crate::render::Settings::default(),
+            &crate::stream::StreamOptions::default(),
+            false,
+        )
+        .unwrap_err();
+        let msg = format!("{err:#}");
+        assert!(
+            msg.contains(&format!(
+                "server at 127.0.0.1:{port} sent 200 without a byte range for /m.tg"
+            )),
+            "{msg}"
+        );
+        assert!(!out.exists(), "no PNG");
+        assert!(requests.load(Ordering::SeqCst) < 20, "stopped at once");
+        server.join().unwrap();
     }
 }

@@ -30,8 +30,14 @@ impl OwnedStream {
     /// Reads the header of the `.tg` file on `src` and allocates a cache of `cache_bytes` (rounded
     /// down to whole blocks, at least 4 blocks) and one table entry per block.
     ///
+    /// The block count is checked against the source first ([`read_tg_header`] against
+    /// [`ChunkSource::byte_len`]; a source that does not know its length must answer a read of the
+    /// last byte the header announces), so a header that declares more blocks than the source holds
+    /// allocates nothing.
+    ///
     /// # Errors
-    /// When the header cannot be read or is invalid, or claims a file over the `stream` limit.
+    /// When the header cannot be read or is invalid, announces more than the source holds, or
+    /// claims a file over the `stream` limit.
     pub fn new<C: ChunkSource + ?Sized>(src: &mut C, cache_bytes: usize) -> Result<Self> {
         let mut scratch = vec![0u8; MAX_BLOCK];
         let (header, _, _) =
@@ -40,6 +46,17 @@ impl OwnedStream {
         let claimed = u64::from(header.blocks) << header.block_log2;
         crate::limits::current().check("stream", "the file size its header claims", claimed)?;
         let bs = header.block_size();
+        let expected = claimed;
+        if src.byte_len().is_none() {
+            let mut last = [0u8; 1];
+            src.read_at(expected - 1, &mut last).map_err(|e| {
+                anyhow::anyhow!(
+                    "the header announces {} blocks ({expected} bytes), but the source cannot                      read byte {}: {e:?}",
+                    header.blocks,
+                    expected - 1
+                )
+            })?;
+        }
         let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
         Ok(Self {
             header,
@@ -146,6 +163,22 @@ pub fn stream_render<C: ChunkSource + ?Sized>(
     opts: &StreamOptions,
     out: &mut FrameBuffers,
 ) -> Result<StreamOutcome> {
+    stream_render_with(src, settings, opts, out, |_| Ok(()))
+}
+
+/// [`stream_render`] with `before_serve` called before each frame's reads: a source's own frame
+/// bookkeeping (an HTTP source's deadline per frame), and a way to stop with its error where
+/// retrying cannot help.
+///
+/// # Errors
+/// As [`stream_render`], and `before_serve`'s.
+pub fn stream_render_with<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    settings: &Settings,
+    opts: &StreamOptions,
+    out: &mut FrameBuffers,
+    mut before_serve: impl FnMut(&mut C) -> Result<()>,
+) -> Result<StreamOutcome> {
     let mut mem = OwnedStream::new(src, opts.cache_bytes)?;
     let file_bytes = u64::from(mem.header.blocks) << mem.header.block_log2;
     let mut stream = mem.open(src)?;
@@ -161,8 +194,34 @@ pub fn stream_render<C: ChunkSource + ?Sized>(
         if stream.converged() {
             break;
         }
+        // A block that passed its CRC holds what the file holds: one that fails the structure
+        // check, or resident blocks that disagree, fail the same way on every later frame. This
+        // frame needs them (a converged one would have stopped above), so it never converges.
+        let c = *stream.counters();
+        if c.structure_errors > 0 || stream.inconsistent() > 0 {
+            let mut why = Vec::new();
+            if c.structure_errors > 0 {
+                why.push(format!(
+                    "{} blocks failed the structure check (child masks or sibling-group pointers \
+                     the format does not allow)",
+                    c.structure_errors
+                ));
+            }
+            if stream.inconsistent() > 0 {
+                why.push(format!(
+                    "frame {} refused {} descents into blocks that disagree (children outside \
+                     their level, sibling groups that overlap, run backwards or do not add up)",
+                    outcome.frames,
+                    stream.inconsistent()
+                ));
+            }
+            bail!(
+                "the file is malformed: {}; nothing was written (`pocketsplat info` on the whole \
+                 file names the first fault)",
+                why.join(", and ")
+            );
+        }
         if outcome.frames >= opts.max_frames {
-            let c = stream.counters();
             bail!(
                 "did not converge in {} frames: {} blocks still missing ({} read errors, {} CRC failures)",
                 outcome.frames,
@@ -171,6 +230,7 @@ pub fn stream_render<C: ChunkSource + ?Sized>(
                 c.crc_errors
             );
         }
+        before_serve(src)?;
         outcome.per_frame.push(stream.serve(src, opts.io_budget));
     }
     outcome.counters = *stream.counters();

@@ -217,7 +217,7 @@ pub struct Row {
     /// What shadowed frames were compared with (`unshadowed` or `ray-cast`); `-` without shadows.
     pub reference: String,
     /// The CRC-32 of the baked file the method drew (not in `results.csv`): what ARM counts of
-    /// other targets are matched by ([`arm_section`]).
+    /// other targets are matched by (the "same frames on" section of `results.md`).
     #[serde(skip)]
     pub file_crc: Option<u32>,
 }
