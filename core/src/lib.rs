@@ -45,5 +45,18 @@ pub mod splat;
 pub mod stream;
 pub mod tg;
 
+/// Helpers of the unit tests.
+#[cfg(test)]
+pub(crate) mod testing {
+    /// A little LCG (no dependency): uniform in [−1, 1), the same sequence on every machine.
+    #[allow(clippy::float_arithmetic)]
+    pub fn signed_uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+}
+
 #[cfg(feature = "bake")]
 pub mod bake;

@@ -226,21 +226,13 @@ pub(crate) fn fill(buf: &mut [u16], v: u16) {
 /// [`Framebuffer::pixel`] without finding its footprint again.
 #[inline(always)]
 pub fn exact_footprint(x_q8: i32, y_q8: i32, size_q8: i32) -> [i32; 4] {
-    let s = Splat {
-        x_q8,
-        y_q8,
-        size_q8,
-        depth: 0,
-        color: 0,
-    };
-    let (x0, x1, y0, y1) = footprint(&s, size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8), true);
-    [x0, x1, y0, y1]
+    clamped_footprint(x_q8, y_q8, size_q8, true)
 }
 
-/// The pixels `x0..x1 × y0..y1` (before clipping to the screen) a square splat at
-/// `(x_q8, y_q8)` of `size_q8` writes, as [`Framebuffer::splat`] draws it: those whose centres
-/// it covers; when none, nothing if `exact`, else the pixel under its centre.
-pub fn drawn_pixels(x_q8: i32, y_q8: i32, size_q8: i32, exact: bool) -> [i32; 4] {
+/// [`footprint`] of a splat at `(x_q8, y_q8)` of `size_q8`, clamped as [`Framebuffer::splat`]
+/// clamps it, as `[x0, x1, y0, y1]`.
+#[inline(always)]
+fn clamped_footprint(x_q8: i32, y_q8: i32, size_q8: i32, exact: bool) -> [i32; 4] {
     let s = Splat {
         x_q8,
         y_q8,
@@ -249,6 +241,14 @@ pub fn drawn_pixels(x_q8: i32, y_q8: i32, size_q8: i32, exact: bool) -> [i32; 4]
         color: 0,
     };
     let (x0, x1, y0, y1) = footprint(&s, size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8), exact);
+    [x0, x1, y0, y1]
+}
+
+/// The pixels `x0..x1 × y0..y1` (before clipping to the screen) a square splat at
+/// `(x_q8, y_q8)` of `size_q8` writes, as [`Framebuffer::splat`] draws it: those whose centres
+/// it covers; when none, nothing if `exact`, else the pixel under its centre.
+pub fn drawn_pixels(x_q8: i32, y_q8: i32, size_q8: i32, exact: bool) -> [i32; 4] {
+    let [x0, x1, y0, y1] = clamped_footprint(x_q8, y_q8, size_q8, exact);
     if x1 > x0 && y1 > y0 {
         [x0, x1, y0, y1]
     } else if exact {

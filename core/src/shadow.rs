@@ -54,7 +54,7 @@
 
 use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::fixed::recip;
-use crate::normal::{NORMALS_Q14, NORMAL_BOXES_Q14, NORMAL_COUNT};
+use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
 use crate::splat::{SplatSink, Stats};
 use crate::tg::frame::{round_to_i32, slot_dots, SlotTable, TgFrame, MAX_SLOTS, SLOT_TABLE};
 use crate::tg::read::{Header, TriGrid};
@@ -563,23 +563,18 @@ impl LightFrame {
         }
         self.to_light_q14 = l;
         let facing = self.derived.facing.chunks_exact_mut(32);
-        for ((f, n), b) in facing
+        for ((f, n), (_, hi)) in facing
             .zip(NORMALS_Q14.chunks_exact(32))
-            .zip(&NORMAL_BOXES_Q14)
+            .zip(normal::word_dot_ranges(l))
         {
-            // The greatest n · l over the 32 codes' box: below 2¹⁴ (a cosine that floors to 0)
-            // every one of them faces away from the light (half the sphere), without its codes.
-            let hi: i32 = (0..3)
-                .map(|a| (i32::from(b[a]) * l[a]).max(i32::from(b[3 + a]) * l[a]))
-                .sum();
+            // Below 2¹⁴ (a cosine that floors to 0) every code of the word faces away from the
+            // light (half the sphere): decided without its codes.
             if hi < 1 << 14 {
                 f.fill(0);
                 continue;
             }
             for (f, n) in f.iter_mut().zip(n) {
-                let cos =
-                    (i32::from(n[0]) * l[0] + i32::from(n[1]) * l[1] + i32::from(n[2]) * l[2])
-                        >> 14;
+                let cos = normal::dot_q14(n, l) >> 14;
                 *f = if cos <= 0 {
                     0
                 } else {
@@ -1117,11 +1112,7 @@ mod tests {
 
     #[test]
     fn light_facing_table_matches_the_formula_per_code() {
-        let mut seed = 0x2545_f491_u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut next = crate::testing::signed_uniform(0x2545_f491_u64);
         let mut light = LightFrame::UNSET;
         for _ in 0..100 {
             let v: [f64; 3] = core::array::from_fn(|_| next());

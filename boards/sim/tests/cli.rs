@@ -1,6 +1,8 @@
 //! The `pocketsplat` program as a user meets it: exit codes, messages naming the file and element,
 //! no partial output on failure, and the JSON fields other tools rely on.
 
+mod common;
+use common::files_in;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -29,15 +31,6 @@ fn octahedron_ply(bad_vertex: Option<&str>) -> String {
         v.join("\n"),
         faces.join("\n")
     )
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 #[test]

@@ -4,6 +4,8 @@
 //! non-zero exit and a message naming the file (and the element, for meshes), never a panic, and
 //! leave no output or temporary file behind; valid extremes must bake, read back and render.
 
+mod common;
+use common::files_in;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -17,15 +19,6 @@ fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
         .env("RUST_BACKTRACE", "1")
         .output()
         .expect("pocketsplat runs")
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// Runs `args` and checks: failure, `needles` all in the message, no panic, no new file.

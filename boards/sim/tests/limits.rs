@@ -4,6 +4,8 @@
 //! declared counts far beyond the bytes, billions of tiny records, a list count of 2³² − 1, a
 //! corrupt gzip trailer, devices and FIFOs, a bake far too deep, numbers that overflow.
 
+mod common;
+use common::files_in;
 use std::io::Write;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -26,15 +28,6 @@ fn pocketsplat(args: &[&str], cwd: &Path) -> (Output, Duration) {
         .output()
         .expect("pocketsplat runs");
     (out, t.elapsed())
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// Runs `args`: it must fail within [`BOUND`], without a panic, with every needle in its message,

@@ -10,4 +10,27 @@ mod table {
     include!(concat!(env!("OUT_DIR"), "/normals_q14.rs"));
 }
 pub use table::NORMALS_Q14;
-pub(crate) use table::NORMAL_BOXES_Q14;
+use table::NORMAL_BOXES_Q14;
+
+/// `n · v` for a Q14 normal `n` and an integer vector `v` whose components are at most 2¹⁴ in
+/// magnitude (so the sum fits an `i32`).
+#[inline(always)]
+pub(crate) fn dot_q14(n: &[i16; 3], v: [i32; 3]) -> i32 {
+    i32::from(n[0]) * v[0] + i32::from(n[1]) * v[1] + i32::from(n[2]) * v[2]
+}
+
+/// For each word of a per-code bit table (codes `32w..32w + 32`: two neighbouring triangles of the
+/// octahedron's third subdivision, a small patch of the sphere), the least and greatest `n · v`
+/// over the box around its 32 normals (`v` as for [`dot_q14`]): an interval that holds every one of
+/// them, so that a per-frame table can decide most words without their codes.
+pub(crate) fn word_dot_ranges(v: [i32; 3]) -> impl Iterator<Item = (i32, i32)> {
+    NORMAL_BOXES_Q14.iter().map(move |b| {
+        let (mut lo, mut hi) = (0i32, 0i32);
+        for (a, &f) in v.iter().enumerate() {
+            let (p, q) = (i32::from(b[a]) * f, i32::from(b[3 + a]) * f);
+            lo += p.min(q);
+            hi += p.max(q);
+        }
+        (lo, hi)
+    })
+}

@@ -34,7 +34,7 @@
 use super::read::Header;
 use super::MAX_LEVELS;
 use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
-use crate::normal::{NORMALS_Q14, NORMAL_BOXES_Q14, NORMAL_COUNT};
+use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
 use crate::raster::Kernel;
 
 /// Child slots of the largest ρ the traversal draws (ρ = 3).
@@ -616,22 +616,16 @@ fn facing_tables(
     back: &mut [u32; NORMAL_COUNT / 32],
     front: &mut [u32; NORMAL_COUNT / 32],
 ) {
-    for (w, b) in NORMAL_BOXES_Q14.iter().enumerate() {
-        // n · fq over the 32 codes' box: when the whole interval lies on one side of both
-        // thresholds, the word is decided without its codes (most of the sphere).
-        let (mut lo, mut hi) = (0i32, 0i32);
-        for (a, &f) in fq.iter().enumerate() {
-            let (p, q) = (i32::from(b[a]) * f, i32::from(b[3 + a]) * f);
-            lo += p.min(q);
-            hi += p.max(q);
-        }
+    for (w, (lo, hi)) in normal::word_dot_ranges(fq).enumerate() {
+        // When the word's interval of n · fq lies on one side of both thresholds, the word is
+        // decided without its codes (most of the sphere).
         if lo > threshold {
             back[w] = u32::MAX;
         } else if hi < -threshold {
             front[w] = u32::MAX;
         } else if lo < -threshold || hi > threshold {
             for (i, n) in NORMALS_Q14[32 * w..32 * w + 32].iter().enumerate() {
-                let d = i32::from(n[0]) * fq[0] + i32::from(n[1]) * fq[1] + i32::from(n[2]) * fq[2];
+                let d = normal::dot_q14(n, fq);
                 if d > threshold {
                     back[w] |= 1 << i;
                 } else if d < -threshold {
@@ -767,11 +761,7 @@ mod tests {
 
     #[test]
     fn facing_tables_match_the_test_per_code() {
-        let mut seed = 0x9e37_79b9_u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut next = crate::testing::signed_uniform(0x9e37_79b9_u64);
         for round in 0..300 {
             let v: Vec3 = core::array::from_fn(|_| next());
             let len = camera::dot(v, v).sqrt();
@@ -800,11 +790,7 @@ mod tests {
     #[test]
     fn slot_dots_are_the_full_dot_products_bit_for_bit() {
         // Awkward rows and sides (a little LCG: no dependency), ρ 2 and 3.
-        let mut seed = 0x1234_5678_u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut next = crate::testing::signed_uniform(0x1234_5678_u64);
         for _ in 0..200 {
             let rows: [Vec3; 3] = core::array::from_fn(|_| core::array::from_fn(|_| next() * 1e6));
             let parent = next().abs() * 7.0 + 1e-3;
