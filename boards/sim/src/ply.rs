@@ -48,7 +48,8 @@ use std::path::Path;
 use flate2::read::MultiGzDecoder;
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{
-    ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
+    BeginList, ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType,
+    ScalarType,
 };
 use pocketsplat_core::bake::{MeshError, TriMesh};
 
@@ -233,7 +234,7 @@ pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError>
 ///
 /// # Errors
 /// As [`load_mesh_with`].
-pub fn load_mesh_from_reader(name: &str, reader: impl Read) -> Result<TriMesh, PlyError> {
+pub fn load_mesh_from_reader(name: &str, reader: impl Read + Send) -> Result<TriMesh, PlyError> {
     load(name, reader, &limits::current(), None)
 }
 
@@ -243,7 +244,7 @@ pub fn load_mesh_from_reader(name: &str, reader: impl Read) -> Result<TriMesh, P
 /// As [`load_mesh_with`].
 pub fn load_mesh_from_reader_with(
     name: &str,
-    reader: impl Read,
+    reader: impl Read + Send,
     limits: &Limits,
 ) -> Result<TriMesh, PlyError> {
     load(name, reader, limits, None)
@@ -252,7 +253,7 @@ pub fn load_mesh_from_reader_with(
 /// `len`: the reader's length in bytes when known (a regular file).
 fn load(
     name: &str,
-    mut reader: impl Read,
+    mut reader: impl Read + Send,
     limits: &Limits,
     len: Option<u64>,
 ) -> Result<TriMesh, PlyError> {
@@ -266,19 +267,21 @@ fn load(
     if prefix == GZIP_MAGIC {
         // Multi-member, as `gzip` itself reads concatenated files.
         let inflated = Capped::new(MultiGzDecoder::new(stream), limits.ply);
-        let mut reader = BufReader::with_capacity(BUFFER_BYTES, inflated);
-        let mesh = read_ply(name, &mut reader, limits, None)?;
-        // To the end of the stream: the decoder checks each member's CRC-32 and length there.
-        io::copy(&mut reader, &mut io::sink()).map_err(|error| {
-            capped(name, &error).unwrap_or_else(|| PlyError::Io {
-                file: name.to_owned(),
-                error: io::Error::new(
-                    error.kind(),
-                    format!("the gzip stream after the last record is damaged: {error}"),
-                ),
-            })
-        })?;
-        Ok(mesh)
+        read_ahead(inflated, |inflated| {
+            let mut reader = BufReader::with_capacity(BUFFER_BYTES, inflated);
+            let mesh = read_ply(name, &mut reader, limits, None)?;
+            // To the end of the stream: the decoder checks each member's CRC-32 and length there.
+            io::copy(&mut reader, &mut io::sink()).map_err(|error| {
+                capped(name, &error).unwrap_or_else(|| PlyError::Io {
+                    file: name.to_owned(),
+                    error: io::Error::new(
+                        error.kind(),
+                        format!("the gzip stream after the last record is damaged: {error}"),
+                    ),
+                })
+            })?;
+            Ok(mesh)
+        })
     } else {
         if let Some(len) = len {
             limits
@@ -290,6 +293,83 @@ fn load(
         }
         let mut reader = BufReader::with_capacity(BUFFER_BYTES, Capped::new(stream, limits.ply));
         read_ply(name, &mut reader, limits, len)
+    }
+}
+
+/// Bytes a [`read_ahead`] thread reads at a time, and chunks it may hold unread.
+const AHEAD_CHUNK: usize = 1 << 18;
+const AHEAD_CHUNKS: usize = 4;
+
+/// Runs `body` on a reader of `inner` that a second thread reads ahead of it, at most
+/// `AHEAD_CHUNKS × AHEAD_CHUNK` bytes ahead: inflating a `.ply.gz` is about a third of reading it,
+/// and the parsing need not wait for it. Errors arrive in order, as `inner` raised them.
+fn read_ahead<T>(mut inner: impl Read + Send, body: impl FnOnce(Ahead) -> T) -> T {
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel(AHEAD_CHUNKS);
+        scope.spawn(move || loop {
+            let mut chunk = std::vec![0u8; AHEAD_CHUNK];
+            let mut n = 0;
+            let end = loop {
+                match inner.read(&mut chunk[n..]) {
+                    Ok(0) => break None,
+                    Ok(k) => {
+                        n += k;
+                        if n == chunk.len() {
+                            break Some(Ok(()));
+                        }
+                    }
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                    Err(e) => break Some(Err(e)),
+                }
+            };
+            chunk.truncate(n);
+            // A send fails once `body` has returned and dropped the reader: then stop.
+            if n > 0 && tx.send(Ok(chunk)).is_err() {
+                return;
+            }
+            match end {
+                Some(Ok(())) => {}
+                Some(Err(e)) => {
+                    let _ = tx.send(Err(e));
+                    return;
+                }
+                None => return,
+            }
+        });
+        // `body` owns the receiving end, so it is dropped (and the thread released) before the
+        // scope waits for the thread, however `body` returns.
+        body(Ahead {
+            rx,
+            chunk: Vec::new(),
+            at: 0,
+        })
+    })
+}
+
+/// The reading end of [`read_ahead`].
+struct Ahead {
+    rx: std::sync::mpsc::Receiver<io::Result<Vec<u8>>>,
+    chunk: Vec<u8>,
+    at: usize,
+}
+
+impl Read for Ahead {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        while self.at == self.chunk.len() {
+            match self.rx.recv() {
+                Ok(Ok(chunk)) => {
+                    self.chunk = chunk;
+                    self.at = 0;
+                }
+                Ok(Err(e)) => return Err(e),
+                // The thread has finished: the end of `inner`.
+                Err(_) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.chunk.len() - self.at);
+        buf[..n].copy_from_slice(&self.chunk[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
     }
 }
 
@@ -1095,6 +1175,9 @@ impl<B: BufRead> Body<'_, B> {
             return Err(self.body_error(def, index, format!("line {} is not text", self.line_no)));
         };
         let text = text.trim_end_matches(['\n', '\r']);
+        if let Some(record) = ascii_fast(text, def) {
+            return Ok(record);
+        }
         parser.read_ascii_element(text, def).map_err(|e| {
             if let Some(columns) = coord_columns {
                 // The crate's number grammar has no `nan` / `inf`: say what `validate` would say.
@@ -1158,8 +1241,107 @@ impl<B: BufRead> Body<'_, B> {
 // ---------------------------------------------------------------------------------------------
 // Records: what `ply-rs-bw` decodes each vertex and face into.
 
+/// Whether `t` is a number as the PLY crate's ASCII grammar has it:
+/// `[-+]?[0-9]+(.[0-9]+)?([eE][-+]?[0-9]+)?`.
+fn is_ply_number(t: &[u8]) -> bool {
+    fn digits(t: &[u8], i: &mut usize) -> bool {
+        let start = *i;
+        while t.get(*i).is_some_and(u8::is_ascii_digit) {
+            *i += 1;
+        }
+        *i > start
+    }
+    let mut i = usize::from(matches!(t.first(), Some(b'-' | b'+')));
+    if !digits(t, &mut i) {
+        return false;
+    }
+    if t.get(i) == Some(&b'.') {
+        i += 1;
+        if !digits(t, &mut i) {
+            return false;
+        }
+    }
+    if matches!(t.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        if matches!(t.get(i), Some(b'-' | b'+')) {
+            i += 1;
+        }
+        if !digits(t, &mut i) {
+            return false;
+        }
+    }
+    i == t.len()
+}
+
+/// One ASCII record read as the PLY crate reads it (the same tokens, the same `FromStr` of each
+/// declared type, the same setters) without its grammar, which takes most of a big ASCII read.
+/// `None` for anything else (a token that is not a number, a missing or unparsable value, a type the
+/// record does not take): the crate's parser then reads the line and says what is wrong.
+fn ascii_fast<E: PropertyAccess>(text: &str, def: &ElementDef) -> Option<E> {
+    let mut tokens = text.split([' ', '\t']).filter(|t| !t.is_empty());
+    if !text
+        .split([' ', '\t'])
+        .filter(|t| !t.is_empty())
+        .all(|t| is_ply_number(t.as_bytes()))
+    {
+        return None;
+    }
+    let mut rec = E::new();
+    let ok = |r: PropertyAccessResult| !matches!(r, PropertyAccessResult::UnsupportedType);
+    for p in def.properties.values() {
+        let name = p.name.as_str();
+        let t = tokens.next()?;
+        match &p.data_type {
+            PropertyType::Scalar(ty) => {
+                let set = match ty {
+                    ScalarType::Char => rec.set_char(name, t.parse().ok()?),
+                    ScalarType::UChar => rec.set_uchar(name, t.parse().ok()?),
+                    ScalarType::Short => rec.set_short(name, t.parse().ok()?),
+                    ScalarType::UShort => rec.set_ushort(name, t.parse().ok()?),
+                    ScalarType::Int => rec.set_int(name, t.parse().ok()?),
+                    ScalarType::UInt => rec.set_uint(name, t.parse().ok()?),
+                    ScalarType::Float => rec.set_float(name, t.parse().ok()?),
+                    ScalarType::Double => rec.set_double(name, t.parse().ok()?),
+                };
+                if !ok(set) {
+                    return None;
+                }
+            }
+            PropertyType::List(_, item) => {
+                let count: usize = t.parse().ok()?;
+                macro_rules! list {
+                    ($begin:ident, $set:ident) => {{
+                        if !matches!(rec.$begin(name, count), BeginList::UseSetter) {
+                            return None;
+                        }
+                        let mut v = Vec::with_capacity(count.min(16));
+                        for _ in 0..count {
+                            v.push(tokens.next()?.parse().ok()?);
+                        }
+                        rec.$set(name, v)
+                    }};
+                }
+                let set = match item {
+                    ScalarType::Char => list!(begin_list_char, set_list_char),
+                    ScalarType::UChar => list!(begin_list_uchar, set_list_uchar),
+                    ScalarType::Short => list!(begin_list_short, set_list_short),
+                    ScalarType::UShort => list!(begin_list_ushort, set_list_ushort),
+                    ScalarType::Int => list!(begin_list_int, set_list_int),
+                    ScalarType::UInt => list!(begin_list_uint, set_list_uint),
+                    ScalarType::Float => list!(begin_list_float, set_list_float),
+                    ScalarType::Double => list!(begin_list_double, set_list_double),
+                };
+                if !ok(set) {
+                    return None;
+                }
+            }
+        }
+    }
+    Some(rec)
+}
+
 /// One vertex: position and (if the file has one) colour.
-#[derive(Default)]
+#[derive(Default, Debug, PartialEq)]
 struct VertexRecord {
     position: [f64; 3],
     color: [u8; 3],
@@ -1235,7 +1417,7 @@ impl PropertyAccess for VertexRecord {
 }
 
 /// One face: its vertex count and its first three indices.
-#[derive(Default)]
+#[derive(Default, Debug, PartialEq)]
 struct FaceRecord {
     corners: [i64; 3],
     count: usize,
@@ -1311,5 +1493,97 @@ struct SkipRecord;
 impl PropertyAccess for SkipRecord {
     fn new() -> Self {
         SkipRecord
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ply_rs_bw::ply::{Addable, PropertyDef};
+
+    fn def(props: &[(&str, PropertyType)]) -> ElementDef {
+        let mut d = ElementDef::new("e".into());
+        for (name, t) in props {
+            d.properties
+                .add(PropertyDef::new((*name).into(), t.clone()));
+        }
+        d
+    }
+
+    /// The fast path gives the crate's record whenever the crate reads the line, and leaves every
+    /// line the crate refuses to the crate (so its errors stay what they were).
+    fn same_as_the_crate<E: PropertyAccess + PartialEq + std::fmt::Debug>(
+        d: &ElementDef,
+        lines: &[&str],
+    ) {
+        let parser = Parser::<E>::new();
+        for line in lines {
+            let fast = ascii_fast::<E>(line, d);
+            match parser.read_ascii_element(line, d) {
+                Ok(slow) => assert_eq!(fast, Some(slow), "{line:?}"),
+                Err(_) => assert_eq!(fast, None, "{line:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn the_fast_ascii_path_reads_exactly_what_the_crate_reads() {
+        let f = || PropertyType::Scalar(ScalarType::Float);
+        let vertex = def(&[
+            ("x", f()),
+            ("y", f()),
+            ("z", f()),
+            ("confidence", f()),
+            ("red", PropertyType::Scalar(ScalarType::UChar)),
+            ("v", PropertyType::Scalar(ScalarType::Double)),
+        ]);
+        same_as_the_crate::<VertexRecord>(
+            &vertex,
+            &[
+                "-0.0378297 0.12794 0.00447467 0.850855 200 0.5",
+                "  1.5e3\t-2 +3 0 255 1E-7  ",
+                "1 2 3 4 5 6 7 8",
+                "1 2 3 4 256 6",
+                "1 2 3 4 -1 6",
+                "1. 2 3 4 5 6",
+                ".5 2 3 4 5 6",
+                "1 2 3 4 5",
+                "1e400 2 3 4 5 6",
+                "1 2 3 4 5.0 6",
+                "nan 2 3 4 5 6",
+                "inf 2 3 4 5 6",
+                "0x1 2 3 4 5 6",
+                "1,2,3,4,5,6",
+                "",
+                "   ",
+                "1 2 3 4 5 6 x",
+                "1 2 3 4 5 6e",
+                "\u{661} 2 3 4 5 6",
+            ],
+        );
+        let face = def(&[
+            (
+                "vertex_indices",
+                PropertyType::List(ScalarType::UChar, ScalarType::Int),
+            ),
+            ("flags", PropertyType::Scalar(ScalarType::UShort)),
+        ]);
+        same_as_the_crate::<FaceRecord>(
+            &face,
+            &[
+                "3 0 1 2 7",
+                "3 21216 21215 20399 0",
+                "4 0 1 2 3 9",
+                "3 0 1 2",
+                "3 0 1",
+                "3 -1 2 3 0",
+                "3 0 1 2 70000",
+                "-3 0 1 2 0",
+                "0 5",
+                "3 0 1 2.5 0",
+                "3 2147483648 1 2 0",
+                "300 0 1 2 0",
+            ],
+        );
     }
 }

@@ -11,6 +11,7 @@
 //!
 //! Everything is deterministic: the same mesh gives the same bytes.
 
+use rayon::prelude::*;
 use std::vec::Vec;
 
 use super::normal::{self, cone_code, cone_sin_bound};
@@ -20,6 +21,8 @@ use crate::bake::{MeshError, TriMesh};
 
 /// Build calls below which splits fall back from the midpoint to the median (bounds the depth).
 const MEDIAN_DEPTH: u32 = 32;
+/// A model of at least this many points has its root's subtrees built in parallel.
+const PARALLEL_POINTS: usize = 1 << 15;
 
 /// What to write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -210,8 +213,25 @@ struct Point {
     rgb: [f64; 3],
 }
 
+/// Every 14-bit normal code decoded once: a bake encodes each node's normal against nine candidate
+/// codes and measures its cones against decoded codes, and `normal::decode` costs two `tan`s.
+struct Codes(Vec<[f64; 3]>);
+
+impl Codes {
+    fn new() -> Self {
+        Self((0..1u16 << 14).map(normal::decode).collect())
+    }
+    fn decode(&self, index: u16) -> [f64; 3] {
+        self.0[usize::from(index & 0x3FFF)]
+    }
+    fn encode(&self, n: [f64; 3]) -> u16 {
+        normal::encode_with(n, |i| self.decode(i))
+    }
+}
+
 struct Builder<'a> {
     pts: &'a [Point],
+    codes: &'a Codes,
     nodes: Vec<BakedNode>,
     rgb: Vec<[f64; 3]>,
     depth: u32,
@@ -269,12 +289,12 @@ impl Builder<'_> {
         let l = len(pt.n);
         let (n, idx, theta) = if l > 0.0 {
             let n = pt.n.map(|c| c / l);
-            let idx = normal::encode(n);
-            (n, idx, angle(n, normal::decode(idx)))
+            let idx = self.codes.encode(n);
+            (n, idx, angle(n, self.codes.decode(idx)))
         } else {
             (
                 [0.0; 3],
-                normal::encode([0.0, 0.0, 1.0]),
+                self.codes.encode([0.0, 0.0, 1.0]),
                 core::f64::consts::PI,
             )
         };
@@ -313,6 +333,7 @@ impl Builder<'_> {
             return self.interior(children);
         }
         // Two binary levels at a time: 2, 3 or 4 parts.
+        let ids_len = ids.len();
         let m = self.split(ids, depth);
         let (a, b) = ids.split_at_mut(m);
         let mut parts: Vec<&mut [u32]> = Vec::with_capacity(4);
@@ -328,15 +349,55 @@ impl Builder<'_> {
                 parts.push(half);
             }
         }
-        let mut children = Vec::with_capacity(parts.len());
-        for part in parts {
-            children.push(if part.len() == 1 {
-                self.leaf(part[0], depth + 1)
-            } else {
-                self.build(part, depth + 1)
-            });
-        }
+        let children = if depth == 0 && ids_len >= PARALLEL_POINTS {
+            // The root's 2–4 subtrees are built on other threads, each into its own node list, and
+            // then adopted: the tree (and so the file, which is laid out from the root) is the
+            // same. Only at the root, so that each node is copied once.
+            let subtrees: Vec<Builder<'_>> = parts
+                .into_par_iter()
+                .map(|part| {
+                    let mut sub = Builder {
+                        pts: self.pts,
+                        codes: self.codes,
+                        nodes: Vec::with_capacity(part.len() * 3 / 2),
+                        rgb: Vec::with_capacity(part.len() * 3 / 2),
+                        depth: 0,
+                    };
+                    sub.child(part, depth + 1);
+                    sub
+                })
+                .collect();
+            subtrees.into_iter().map(|sub| self.adopt(sub)).collect()
+        } else {
+            parts
+                .into_iter()
+                .map(|part| self.child(part, depth + 1))
+                .collect()
+        };
         self.interior(children)
+    }
+
+    /// The node over `ids` (a leaf for one point) at tree depth `depth`.
+    fn child(&mut self, ids: &mut [u32], depth: u32) -> u32 {
+        if ids.len() == 1 {
+            self.leaf(ids[0], depth)
+        } else {
+            self.build(ids, depth)
+        }
+    }
+
+    /// Appends the nodes of `sub` (whose last node is its subtree's root); returns that root.
+    fn adopt(&mut self, sub: Builder<'_>) -> u32 {
+        let offset = self.nodes.len() as u32;
+        self.depth = self.depth.max(sub.depth);
+        self.rgb.extend(sub.rgb);
+        self.nodes.extend(sub.nodes.into_iter().map(|mut n| {
+            for c in &mut n.children {
+                *c += offset;
+            }
+            n
+        }));
+        self.nodes.len() as u32 - 1
     }
 
     fn interior(&mut self, children: Vec<u32>) -> u32 {
@@ -364,17 +425,17 @@ impl Builder<'_> {
         let l = len(nsum);
         let (n, idx) = if l > 1e-9 {
             let n = nsum.map(|v| v / l);
-            (n, normal::encode(n))
+            (n, self.codes.encode(n))
         } else {
-            ([0.0; 3], normal::encode([0.0, 0.0, 1.0]))
+            ([0.0; 3], self.codes.encode([0.0, 0.0, 1.0]))
         };
-        let q = normal::decode(idx);
+        let q = self.codes.decode(idx);
         let theta = if l > 1e-9 {
             children
                 .iter()
                 .map(|&i| {
                     let ch = &self.nodes[i as usize];
-                    angle(q, normal::decode(ch.normal)) + ch.cone_exact
+                    angle(q, self.codes.decode(ch.normal)) + ch.cone_exact
                 })
                 .fold(0.0, f64::max)
                 .min(core::f64::consts::PI)
@@ -491,8 +552,10 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
     if pts.len() < 2 {
         return Err(QsBakeError::TooFewPoints(pts.len()));
     }
+    let codes = Codes::new();
     let mut b = Builder {
         pts: &pts,
+        codes: &codes,
         nodes: Vec::with_capacity(pts.len() * 3 / 2),
         rgb: Vec::with_capacity(pts.len() * 3 / 2),
         depth: 0,
@@ -524,7 +587,8 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
             nodes[p as usize].decoded_center,
             nodes[p as usize].decoded_radius,
         );
-        for ci in nodes[p as usize].children.clone() {
+        for k in 0..nodes[p as usize].children.len() {
+            let ci = nodes[p as usize].children[k];
             let ch = &mut nodes[ci as usize];
             let rel = sub(ch.center, pc).map(|v| v / pr);
             let rr = ch.radius / pr;
@@ -541,7 +605,7 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
     let (mut nerr, mut nerr_max, mut nn) = (0.0f64, 0.0f64, 0u64);
     for (i, n) in nodes.iter().enumerate() {
         if i as u32 != root && len(n.normal_exact) > 0.0 {
-            let e = angle(n.normal_exact, normal::decode(n.normal));
+            let e = angle(n.normal_exact, codes.decode(n.normal));
             nerr += e;
             nerr_max = nerr_max.max(e);
             nn += 1;
@@ -592,7 +656,10 @@ fn layout(
     leaves: u32,
 ) -> Result<(Vec<u8>, u64), QsBakeError> {
     let ns: u64 = if color { 6 } else { 4 };
-    let is_interior = |i: u32| !nodes[i as usize].children.is_empty();
+    // One byte a node, read in the order of the walk below (the nodes are much larger and are
+    // stored in the order of the build).
+    let interior: Vec<bool> = nodes.iter().map(|n| !n.children.is_empty()).collect();
+    let is_interior = |i: u32| interior[i as usize];
     // Groups in breadth-first order of their parents.
     let mut parents = std::vec![root];
     let mut k = 0;
