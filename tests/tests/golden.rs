@@ -177,3 +177,53 @@ fn bunny_qsplat_standard_views_match_golden_images_and_the_reference() {
         failures.join("\n")
     );
 }
+
+/// Colour by resolution (issue 19): the bunny's QSplat file from the std view at a 12 px cutoff,
+/// each splat tinted by its levels above full detail. Every pixel is its untinted self multiplied
+/// by one of the tints (so no tint moves a splat or changes what wins a pixel), several levels show,
+/// and the frame matches its golden image.
+#[test]
+fn bunny_qsplat_colored_by_level_matches_its_golden_image() {
+    use pocketsplat_core::splat::{modulate, LEVEL_TINTS};
+    let Some(path) = model("bun_zipper.ply.gz") else {
+        return;
+    };
+    let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
+    let baked = bake_qs(&mesh, &QsBakeOptions::default()).unwrap();
+    let file = QSplat::open(&baked.bytes).unwrap();
+    let plain = Settings {
+        cutoff_px: 12.0,
+        ..Settings::default()
+    };
+    let tinted = Settings {
+        color_by_level: true,
+        ..plain
+    };
+    let frame = |s: &Settings| {
+        let mut fb = FrameBuffers::new();
+        pocketsplat_sim::qsplat::render_qs_frame(&file, s, &mut fb).unwrap();
+        fb.pixels().to_vec()
+    };
+    let (a, b) = (frame(&plain), frame(&tinted));
+    let mut seen = [0usize; LEVEL_TINTS.len()];
+    for (i, (&p, &q)) in a.iter().zip(&b).enumerate() {
+        if p == 0 {
+            assert_eq!(q, 0, "pixel {i}: drawn only when tinted");
+            continue;
+        }
+        let k = LEVEL_TINTS
+            .iter()
+            .position(|&t| modulate(p, t) == q)
+            .unwrap_or_else(|| panic!("pixel {i}: {q:#06x} is no tint of {p:#06x}"));
+        seen[k] += 1;
+    }
+    eprintln!("pixels per level (0 = full detail): {seen:?}");
+    assert!(
+        seen.iter().filter(|&&n| n > 100).count() >= 3,
+        "levels seen: {seen:?}"
+    );
+    let rgb: Vec<[u8; 3]> = b.iter().map(|&p| rgb565_to_rgb888(p)).collect();
+    let mut failures = Vec::new();
+    check("bunny-qs-std-levels.png", &rgb, &mut failures);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

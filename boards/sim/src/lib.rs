@@ -8,6 +8,7 @@ pub mod cmd;
 pub mod demo;
 pub mod fsutil;
 pub mod image;
+pub mod levels;
 pub mod limits;
 pub mod metrics;
 pub mod ply;

@@ -99,6 +99,11 @@ enum Command {
         /// Print one JSON object with the frame's statistics on stdout.
         #[arg(long)]
         stats_json: bool,
+        /// Tint each splat by how many levels above full detail it is drawn (Streaming QSplat
+        /// §4.1): white is full detail, then yellow, orange, red, magenta, blue, cyan, green for 7
+        /// or more; a key is drawn in the bottom-left corner. For .tg, .qs and .pack files.
+        #[arg(long)]
+        color_by_level: bool,
         /// Read the `.tg` file (a path, or an `http://` URL served with byte ranges) in blocks
         /// through a block cache, as a handheld reads an SD card, drawing frames until one misses
         /// nothing; write that frame. Without shadows.
@@ -122,7 +127,7 @@ enum Command {
     /// 1 px whenever nothing moves. Needs a display; without one, use `render`.
     #[command(after_help = cmd::view::KEYS_HELP)]
     View {
-        /// A `.tg` file.
+        /// A `.tg`, `.qs` or `.pack` file.
         input: PathBuf,
         /// Starting view: a standard view (std, front, close, far) or AZ,EL,DIST.
         #[arg(long, default_value = "std", allow_hyphen_values = true)]
@@ -157,6 +162,9 @@ enum Command {
         /// Write the frame on screen (HUD included) as a PNG when fully refined, and at exit.
         #[arg(long, value_name = "PNG")]
         screenshot: Option<PathBuf>,
+        /// Start with colour by resolution on (the `V` key toggles it).
+        #[arg(long)]
+        color_by_level: bool,
     },
     /// Reports measured live.
     Report {
@@ -316,6 +324,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             shadows,
             stats_json,
             stream,
+            color_by_level,
             ..
         }) if scene::cmd::is_pack(&input) => {
             if stream {
@@ -342,6 +351,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     ShadowArg::TwoPass => PackShadows::TwoPass,
                 }),
                 stats_json,
+                color_by_level,
             };
             scene::cmd::render(&input, &out, &args)
         }
@@ -360,6 +370,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             io_budget,
             cache,
             max_frames,
+            color_by_level,
         }) => {
             let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
@@ -383,6 +394,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .as_deref()
                     .map(cmd::render::parse_light_pos)
                     .transpose()?,
+                color_by_level,
                 ..settings
             };
             if stream {
@@ -411,6 +423,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             target_fps,
             frames,
             screenshot,
+            color_by_level,
         }) => {
             let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
@@ -427,6 +440,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     ShadowArg::OnePass => ShadowMode::OnePass,
                     ShadowArg::TwoPass => ShadowMode::TwoPass,
                 },
+                color_by_level,
                 ..Default::default()
             };
             let opts = cmd::view::ViewOptions {

@@ -5,14 +5,15 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{bail, Result};
-use pocketsplat_core::camera::{self, Placement};
+use pocketsplat_core::camera::{self, Camera, Placement};
 use pocketsplat_core::qs::{
     render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions, MAGIC,
 };
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::{Material, ShadingTable};
-use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
 
+use crate::levels::Levels;
 use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
 
 /// Whether `path` is a `.qs` file: its first bytes are `QSplat11`, or failing that its extension is
@@ -69,17 +70,33 @@ pub fn render_qs_with(
     out: &mut FrameBuffers,
     overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
 ) -> Result<FrameReport> {
+    let cam = settings.camera(file.bounds());
+    render_qs_from(file, settings, &cam, table, out, overlay)
+}
+
+/// As [`render_qs_with`], from `cam` instead of the orbit camera of `settings.view` (the viewer
+/// pans the orbit centre).
+///
+/// # Errors
+/// When the frame cannot be set up or shadows are asked for.
+pub fn render_qs_from(
+    file: &QSplat<'_>,
+    settings: &Settings,
+    cam: &Camera,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
+) -> Result<FrameReport> {
     if settings.shadows != ShadowMode::Off {
         bail!("shadows are implemented for .tg files only; render .qs files with --shadows off");
     }
-    let cam = settings.camera(file.bounds());
     let opts = QsRenderOptions {
         cutoff_px: settings.cutoff_px,
         kernel: settings.kernel,
         backface_culling: true,
     };
     let t = Instant::now();
-    let frame = QsFrame::new(file, &Placement::IDENTITY, &cam, &opts)?;
+    let frame = QsFrame::new(file, &Placement::IDENTITY, cam, &opts)?;
     table.update(
         &[qs_material(file, settings)],
         settings.light_dir(),
@@ -92,7 +109,17 @@ pub fn render_qs_with(
         table,
         kernel: settings.kernel,
     };
-    let stats = render_qs_colored(file, &frame, &mut sink);
+    let stats = if settings.color_by_level {
+        let levels = Levels::of_qsplat(file);
+        let mut tinted = LevelTint {
+            sink: &mut sink,
+            levels: |object, s: &SampleSplat| levels.of(object, s),
+            object: 0,
+        };
+        render_qs_colored(file, &frame, &mut tinted)
+    } else {
+        render_qs_colored(file, &frame, &mut sink)
+    };
     let time = t.elapsed();
     overlay(&mut fb, &stats);
     Ok(FrameReport { stats, time })

@@ -9,7 +9,9 @@ use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 pub use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
-use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
+use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, SplatSink, Stats};
+
+use crate::levels::Levels;
 use pocketsplat_core::tg::read::Header;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid};
 
@@ -100,6 +102,8 @@ pub struct Settings {
     pub shadows: ShadowMode,
     /// Side of the shadow map, texels.
     pub shadow_map_size: usize,
+    /// Tint each splat by how many levels above full detail it is ([`crate::levels`]).
+    pub color_by_level: bool,
 }
 
 impl Default for Settings {
@@ -114,6 +118,7 @@ impl Default for Settings {
             material: DEFAULT_MATERIAL,
             shadows: ShadowMode::Off,
             shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
+            color_by_level: false,
         }
     }
 }
@@ -271,7 +276,17 @@ pub fn render_tg_from(
         table,
         kernel: settings.kernel,
     };
-    let stats = draw(grid, settings, &frame, &mut out.shadow, &mut sink)?;
+    let stats = if settings.color_by_level {
+        let levels = Levels::of_grid(grid.header().depth);
+        let mut tinted = LevelTint {
+            sink: &mut sink,
+            levels: |object, s: &SampleSplat| levels.of(object, s),
+            object: 0,
+        };
+        draw(grid, settings, &frame, &mut out.shadow, &mut tinted)?
+    } else {
+        draw(grid, settings, &frame, &mut out.shadow, &mut sink)?
+    };
     let report = FrameReport {
         stats,
         time: t.elapsed(),

@@ -237,6 +237,7 @@ impl Viewer {
             (Key::O, Action::CycleShadows),
             (Key::P, Action::ToggleRefine),
             (Key::H, Action::CycleHud),
+            (Key::V, Action::ToggleLevels),
             (Key::R, Action::Reset),
         ] {
             if pressed(key) {

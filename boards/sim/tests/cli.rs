@@ -460,3 +460,120 @@ dist = 1.5
     assert!(err.contains("bad.toml") && err.contains("\"oct\""), "{err}");
     assert!(!dir.path().join("bad.pack").exists());
 }
+
+#[test]
+fn color_by_level_tints_tg_qs_and_pack_files_with_a_key_and_refuses_a_mesh() {
+    use pocketsplat_core::shade::rgb565_to_rgb888;
+    use pocketsplat_core::splat::LEVEL_TINTS;
+    use pocketsplat_sim::image::read_rgb8_frame;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A UV sphere of 24 × 48 quads: fine enough that a coarse cutoff stops above its leaves.
+    let (rings, segments) = (24u32, 48u32);
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        (rings + 1) * segments,
+        2 * rings * segments
+    );
+    for i in 0..=rings {
+        let th = std::f64::consts::PI * f64::from(i) / f64::from(rings);
+        for j in 0..segments {
+            let ph = 2.0 * std::f64::consts::PI * f64::from(j) / f64::from(segments);
+            ply += &format!(
+                "{} {} {}\n",
+                th.sin() * ph.cos(),
+                th.cos(),
+                th.sin() * ph.sin()
+            );
+        }
+    }
+    let at = |i: u32, j: u32| i * segments + j % segments;
+    for i in 0..rings {
+        for j in 0..segments {
+            ply += &format!("3 {} {} {}\n", at(i, j), at(i, j + 1), at(i + 1, j + 1));
+            ply += &format!("3 {} {} {}\n", at(i, j), at(i + 1, j + 1), at(i + 1, j));
+        }
+    }
+    std::fs::write(d.join("ball.ply"), ply).unwrap();
+    let ok = |out: Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    ok(pocketsplat(
+        &["bake", "ball.ply", "--depth", "4", "-o", "ball.tg"],
+        d,
+    ));
+    ok(pocketsplat(
+        &["bake", "ball.ply", "--format", "qsplat", "-o", "ball.qs"],
+        d,
+    ));
+    std::fs::write(
+        d.join("scene.toml"),
+        "[materials.clay]\ncolor = [0.8, 0.7, 0.6]\n\
+         [[objects]]\nname = \"t\"\nfile = \"ball.tg\"\nmaterial = \"clay\"\n\
+         [[objects]]\nname = \"q\"\nfile = \"ball.qs\"\nmaterial = \"clay\"\n\
+         translate = [1.5, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    ok(pocketsplat(&["bake", "scene.toml", "-o", "s.pack"], d));
+    for input in ["ball.tg", "ball.qs", "s.pack"] {
+        ok(pocketsplat(
+            &["render", input, "-o", "plain.png", "--cutoff", "24"],
+            d,
+        ));
+        ok(pocketsplat(
+            &[
+                "render",
+                input,
+                "-o",
+                "levels.png",
+                "--cutoff",
+                "24",
+                "--color-by-level",
+            ],
+            d,
+        ));
+        let plain = read_rgb8_frame(&d.join("plain.png")).unwrap();
+        let levels = read_rgb8_frame(&d.join("levels.png")).unwrap();
+        // The key: a swatch per level in the bottom-left corner, 14 px apart, 10 px below its top.
+        let width = pocketsplat_core::camera::WIDTH;
+        let top = pocketsplat_core::camera::HEIGHT - 30;
+        for (i, &tint) in LEVEL_TINTS.iter().enumerate() {
+            let (x, y) = (1 + 14 * i + 5, top + 14);
+            assert_eq!(
+                levels[y * width + x],
+                rgb565_to_rgb888(tint),
+                "{input}: swatch {i}"
+            );
+        }
+        // Above the key, tinted splats: no channel brighter than untinted, some darker.
+        let model = ..top * width;
+        let darker = plain[model]
+            .iter()
+            .zip(&levels[model])
+            .filter(|(p, q)| {
+                assert!(
+                    (0..3).all(|c| q[c] <= p[c]),
+                    "{input}: {q:?} brighter than {p:?}"
+                );
+                p != q
+            })
+            .count();
+        assert!(darker > 50, "{input}: {darker} pixels tinted");
+    }
+    let out = pocketsplat(
+        &["render", "ball.ply", "-o", "m.png", "--color-by-level"],
+        d,
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("ball.ply") && err.contains("--color-by-level"),
+        "{err}"
+    );
+    assert!(!d.join("m.png").exists());
+}

@@ -9,59 +9,8 @@ use super::read::{Group, Node, QSplat, Tree};
 use super::table::{unpack, SPHERES};
 use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
 use crate::fixed::{recip, SUBPIXEL_BITS};
-use crate::raster::Splat;
-use crate::splat::{NullSink, SampleSplat, ShadedRaster, SplatSink, Stats};
-
-/// A sink that can also take a sample's own RGB565 colour (QSplat nodes may carry one).
-pub trait ColorSink: SplatSink {
-    /// Draws (or records) one splat whose sample has colour `rgb565`.
-    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16);
-}
-
-/// Multiplies two RGB565 colours channel by channel (each channel as a fraction of its maximum).
-#[inline]
-pub fn modulate(a: u16, b: u16) -> u16 {
-    let ch = |shift: u32, max: u32, k: u32| {
-        let (x, y) = (u32::from(a) >> shift & max, u32::from(b) >> shift & max);
-        // x·y/max, rounded: k = 2¹⁶/max.
-        ((x * y * k + 32768) >> 16).min(max) << shift
-    };
-    (ch(11, 31, 2114) | ch(5, 63, 1040) | ch(0, 31, 2114)) as u16
-}
-
-/// The material's shading (light, view, ambient, highlight) modulated by the sample's colour: for a
-/// coloured model, give the shading table a white material.
-impl<const W: usize, const H: usize, const M: usize> ColorSink
-    for ShadedRaster<'_, '_, '_, W, H, M>
-{
-    #[inline]
-    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
-        let lit = if s.shadowed {
-            self.table.shadowed(s.attr)
-        } else {
-            self.table.color(s.attr)
-        };
-        self.fb.splat(
-            &Splat {
-                x_q8: s.x_q8,
-                y_q8: s.y_q8,
-                size_q8: s.size_q8,
-                depth: s.depth,
-                color: modulate(lit, rgb565),
-            },
-            self.kernel,
-            s.exact,
-        );
-    }
-}
-
-impl ColorSink for NullSink {
-    #[inline]
-    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
-        self.splat(s);
-        self.checksum = self.checksum.wrapping_add(u32::from(rgb565));
-    }
-}
+pub use crate::splat::ColorSink;
+use crate::splat::{SampleSplat, SplatSink, Stats};
 
 /// Any sink, with colours ignored.
 struct NoColor<'s, S>(&'s mut S);
@@ -401,6 +350,7 @@ enum Cone {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::splat::modulate;
 
     #[test]
     fn divisions_by_multiply_are_exact() {
@@ -451,6 +401,7 @@ mod tests {
 mod render_tests {
     #![allow(clippy::float_arithmetic)]
     use super::*;
+    use crate::splat::NullSink;
     use crate::camera::{Camera, Placement, Sphere as BSphere, View, STANDARD_VIEWS};
     use crate::qs::frame::QsRenderOptions;
     use crate::qs::table::sphere;

@@ -695,7 +695,8 @@ fn draw_qsplat<S: SplatSink>(
 }
 
 /// The slot sink of object `i` in front of `sink`.
-fn slotted<'s, S>(scene: &Scene<'_>, i: usize, sink: &'s mut S) -> Slotted<'s, S> {
+fn slotted<'s, S: SplatSink>(scene: &Scene<'_>, i: usize, sink: &'s mut S) -> Slotted<'s, S> {
+    sink.begin_object(i as u8);
     Slotted {
         inner: sink,
         slot_bits: slot_bits(scene.pack.object(i).as_ref()),

@@ -78,6 +78,9 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
         let mut fb = FrameBuffers::new();
         let r = crate::qsplat::render_qs_frame(&file, settings, &mut fb)
             .map_err(|e| anyhow::anyhow!("{}: {e:#}", input.display()))?;
+        if settings.color_by_level {
+            crate::levels::legend_in_corner(&mut fb.framebuffer());
+        }
         image::write_rgb565_png(out, fb.pixels())?;
         if stats_json {
             let s = r.stats;
@@ -106,6 +109,9 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
             .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
         let mut fb = FrameBuffers::new();
         let r = render_tg_frame(&grid, settings, &mut fb)?;
+        if settings.color_by_level {
+            crate::levels::legend_in_corner(&mut fb.framebuffer());
+        }
         image::write_rgb565_png(out, fb.pixels())?;
         if stats_json {
             let s = r.stats;
@@ -122,6 +128,13 @@ pub fn run(input: &Path, out: &Path, settings: &Settings, stats_json: bool) -> R
             );
         }
     } else {
+        if settings.color_by_level {
+            anyhow::bail!(
+                "{}: --color-by-level tints a point file's levels; a mesh has none (render a .tg, \
+                 .qs or .pack file)",
+                input.display()
+            );
+        }
         let mesh = ply::load_mesh(input)?;
         let camera = settings.camera(mesh.bounds_f32());
         let t_render = Instant::now();

@@ -120,6 +120,8 @@ pub struct RenderArgs {
     pub shadows: Option<PackShadows>,
     /// Print one JSON object of statistics.
     pub stats_json: bool,
+    /// Tint splats by their levels above full detail, with a key.
+    pub color_by_level: bool,
 }
 
 /// A view of the pack by name, a standard view, `AZ,EL,DIST`, or `path@T` (the camera path at `T`
@@ -172,8 +174,12 @@ pub fn render(input: &Path, out: &Path, args: &RenderArgs) -> Result<()> {
         let [az, el] = crate::cmd::render::parse_numbers::<2>("--light", l)?;
         settings.light_az_el = Some((az, el));
     }
+    settings.color_by_level = args.color_by_level;
     let mut fb = FrameBuffers::new();
     let frame = render_pack(&scene, &settings, &mut fb)?;
+    if args.color_by_level {
+        crate::levels::legend_in_corner(&mut fb.framebuffer());
+    }
     image::write_rgb565_png(out, fb.pixels())?;
     if args.stats_json {
         let mut v = stats_json(&frame.stats.total);
@@ -460,10 +466,14 @@ impl ViewScene for PackView<'_> {
     ) -> Result<FrameReport> {
         let s = PackSettings::from_settings(settings)?;
         let cam = s.camera(&self.scene, pan);
+        let levels = settings
+            .color_by_level
+            .then(|| crate::levels::Levels::of_scene(&self.scene));
         let frame = super::render::render_pack_from(
             &self.scene,
             &cam,
             &s.options(&self.scene),
+            levels.as_ref(),
             &mut self.table,
             out,
             |fb, f| overlay(fb, &f.report()),

@@ -51,7 +51,7 @@ fn render(scene: &Scene<'_>, camera: &Camera, shadows: PackShadows, out: &mut Fr
     let mut opts = PackSettings::new(View::new(0.0, 0.0, 1.0)).options(scene);
     opts.shadows = shadows;
     let mut table = scene_table();
-    render_pack_from(scene, camera, &opts, &mut table, out, |_, _| {}).expect("renders");
+    render_pack_from(scene, camera, &opts, None, &mut table, out, |_, _| {}).expect("renders");
 }
 
 #[test]

@@ -12,8 +12,9 @@ use pocketsplat_core::scene::{
     ram_budget, render_scene, PackShadows, RamBudget, Scene, SceneOptions, SceneStats, MAX_SLOTS,
 };
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
 
+use crate::levels::Levels;
 use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
 
 /// The shading table the simulator uses for every scene (8 slots, the most a pack has).
@@ -62,6 +63,8 @@ pub struct PackSettings {
     pub fov_deg: Option<f64>,
     /// Shadow map side (`None`: the pack's, or 256 when it has none).
     pub shadow_map_size: Option<usize>,
+    /// Tint each splat by how many levels above full detail it is ([`crate::levels`]).
+    pub color_by_level: bool,
 }
 
 impl PackSettings {
@@ -75,6 +78,7 @@ impl PackSettings {
             light_az_el: None,
             fov_deg: None,
             shadow_map_size: None,
+            color_by_level: false,
         }
     }
 
@@ -99,6 +103,7 @@ impl PackSettings {
             light_az_el: Some(s.light_az_el),
             fov_deg: Some(s.fov_deg),
             shadow_map_size: Some(s.shadow_map_size),
+            color_by_level: s.color_by_level,
         })
     }
 
@@ -136,7 +141,7 @@ impl PackSettings {
 
 /// Renders a frame of `scene` from `camera` into `out` (cleared first), with a caller-owned table
 /// (rebuilt only for slots whose light, view or material changed) and a hook that may draw over the
-/// frame.
+/// frame; with `levels`, every splat is tinted by its levels above full detail ([`crate::levels`]).
 ///
 /// # Errors
 /// When a frame cannot be set up (bad camera or cutoff).
@@ -144,6 +149,7 @@ pub fn render_pack_from(
     scene: &Scene<'_>,
     camera: &Camera,
     opts: &SceneOptions,
+    levels: Option<&Levels>,
     table: &mut SceneTable,
     out: &mut FrameBuffers,
     overlay: impl FnOnce(&mut Framebuffer<'_>, &SceneFrame),
@@ -161,8 +167,18 @@ pub fn render_pack_from(
         table,
         kernel: opts.kernel,
     };
-    let stats = render_scene(scene, camera, opts, &mut out.shadow, &mut sink)
-        .map_err(|e| anyhow!("{e}"))?;
+    let stats = match levels {
+        Some(levels) => {
+            let mut tinted = LevelTint {
+                sink: &mut sink,
+                levels: |object, s: &SampleSplat| levels.of(object, s),
+                object: 0,
+            };
+            render_scene(scene, camera, opts, &mut out.shadow, &mut tinted)
+        }
+        None => render_scene(scene, camera, opts, &mut out.shadow, &mut sink),
+    }
+    .map_err(|e| anyhow!("{e}"))?;
     let frame = SceneFrame {
         stats,
         time: t.elapsed(),
@@ -183,10 +199,12 @@ pub fn render_pack(
 ) -> Result<SceneFrame> {
     let mut table = scene_table();
     let cam = settings.camera(scene, [0.0; 3]);
+    let levels = settings.color_by_level.then(|| Levels::of_scene(scene));
     render_pack_from(
         scene,
         &cam,
         &settings.options(scene),
+        levels.as_ref(),
         &mut table,
         out,
         |_, _| {},

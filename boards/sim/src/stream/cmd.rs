@@ -45,6 +45,9 @@ pub fn run(
             stream_render(&mut src, settings, opts, &mut fb).with_context(|| input.to_string())?;
         (o, None)
     };
+    if settings.color_by_level {
+        crate::levels::legend_in_corner(&mut fb.framebuffer());
+    }
     image::write_rgb565_png(out, fb.pixels())?;
     let StreamOutcome {
         frames,

@@ -5,12 +5,13 @@ use anyhow::{bail, Result};
 use pocketsplat_core::camera::Camera;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
 use pocketsplat_core::stream::{
     read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, TgStream,
 };
 use pocketsplat_core::tg::Header;
 
+use crate::levels::Levels;
 use crate::render::{frame_setup, FrameBuffers, Settings, ShadowMode};
 
 /// Largest block a `.tg` file has.
@@ -108,6 +109,15 @@ pub fn stream_frame(
         table,
         kernel: settings.kernel,
     };
+    if settings.color_by_level {
+        let levels = Levels::of_grid(stream.header().depth);
+        let mut tinted = LevelTint {
+            sink: &mut sink,
+            levels: |object, s: &SampleSplat| levels.of(object, s),
+            object: 0,
+        };
+        return Ok(stream.render(&frame, &mut tinted));
+    }
     Ok(stream.render(&frame, &mut sink))
 }
 

@@ -14,7 +14,7 @@ use crate::render::{FrameReport, ShadowMode, HEIGHT};
 /// The HUD's help lines (FONT_6X10: at most 40 characters across 240 pixels).
 const HUD_HELP: [&str; 3] = [
     "drag/arrows orbit  rdrag/shift/WASD pan",
-    "wheel/+- zoom  IJKL light  [] cutoff",
+    "wheel/+- zoom IJKL light []cutoff V lvl",
     "C kernel O shadow P refine R home H hud",
 ];
 
@@ -126,9 +126,19 @@ pub fn draw_hud<D: DrawTarget<Color = Rgb565>>(
         )
         .draw(target)?;
     }
+    let help_top = HEIGHT as i32 - 1 - HUD_LINE_PX * HUD_HELP.len() as i32;
+    if s.color_by_level {
+        // The key of the tints, above the help lines when they are shown.
+        let bottom = if state.hud == HudMode::Full {
+            help_top
+        } else {
+            HEIGHT as i32
+        };
+        crate::levels::legend(target, 0, bottom - crate::levels::LEGEND_HEIGHT)?;
+    }
     if state.hud == HudMode::Full {
         let dim = hud_style(HUD_DIM);
-        let top = HEIGHT as i32 - 1 - HUD_LINE_PX * HUD_HELP.len() as i32;
+        let top = help_top;
         for (i, line) in HUD_HELP.iter().enumerate() {
             Text::with_baseline(
                 line,

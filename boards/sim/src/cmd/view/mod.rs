@@ -12,6 +12,7 @@ mod state;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
+use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::tg::{TriGrid, Verify};
@@ -20,7 +21,8 @@ pub use hud::{draw_hud, HudInfo, HudMode};
 pub use refine::{Refiner, MAX_CUTOFF_PX};
 pub use state::{panned_camera, Action, Change, ViewState, DIST_RANGE, MAX_ELEVATION_DEG};
 
-use crate::render::{render_tg_from, FrameBuffers, FrameReport, Settings};
+use crate::qsplat::render_qs_from;
+use crate::render::{render_tg_from, FrameBuffers, FrameReport, Settings, ShadowMode};
 
 /// The mouse and keys, as `pocketsplat view --help` and the HUD list them.
 pub const KEYS_HELP: &str = "\
@@ -35,6 +37,7 @@ Mouse and keys:
   O                      shadows: off / one-pass / two-pass
   P                      progressive refinement on / off
   R                      back to the starting view
+  V                      colour by resolution: tint splats by their levels above full detail
   H                      HUD: stats and help / stats / off
   Esc                    quit
 
@@ -134,6 +137,50 @@ impl Scene for TgScene<'_> {
     }
 }
 
+/// A QSplat `.qs` file as a [`Scene`] (no shadows: the QSplat renderer has none).
+pub struct QsScene<'a> {
+    file: QSplat<'a>,
+    table: Box<ShadingTable<1>>,
+}
+
+impl Scene for QsScene<'_> {
+    fn label(&self) -> String {
+        format!("QSplat {} points", self.file.counts().leaves)
+    }
+
+    fn render(
+        &mut self,
+        settings: &Settings,
+        pan: [f64; 3],
+        out: &mut FrameBuffers,
+        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
+    ) -> Result<FrameReport> {
+        let cam = panned_camera(settings, self.file.bounds(), pan);
+        let settings = Settings {
+            shadows: ShadowMode::Off,
+            ..*settings
+        };
+        let t = std::time::Instant::now();
+        render_qs_from(
+            &self.file,
+            &settings,
+            &cam,
+            &mut self.table,
+            out,
+            |fb, stats| {
+                let time = t.elapsed();
+                overlay(
+                    fb,
+                    &FrameReport {
+                        stats: *stats,
+                        time,
+                    },
+                );
+            },
+        )
+    }
+}
+
 /// Opens the bytes of a point file as a [`Scene`], by the file's magic.
 ///
 /// # Errors
@@ -148,9 +195,16 @@ pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn Scene + 'a
     if bytes.starts_with(&pocketsplat_core::scene::MAGIC) {
         return crate::scene::cmd::open_view_scene(path, bytes);
     }
+    if bytes.starts_with(&pocketsplat_core::qs::MAGIC) {
+        let file = QSplat::open(bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        return Ok(Box::new(QsScene {
+            file,
+            table: Box::new(ShadingTable::<1>::new()),
+        }));
+    }
     bail!(
-        "{}: not a point file `pocketsplat view` can show (expected a .tg file; bake a mesh first \
-         with `pocketsplat bake MESH -o FILE.tg`)",
+        "{}: not a point file `pocketsplat view` can show (expected a .tg, .qs or .pack file; bake \
+         a mesh first with `pocketsplat bake MESH -o FILE.tg`)",
         path.display()
     )
 }

@@ -52,6 +52,8 @@ pub enum Action {
     ToggleRefine,
     /// Next HUD mode.
     CycleHud,
+    /// Colour by resolution on ↔ off.
+    ToggleLevels,
     /// Back to the starting view, light and cutoff.
     Reset,
 }
@@ -170,6 +172,7 @@ impl ViewState {
                 self.hud = self.hud.next();
                 return Change::Overlay;
             }
+            Action::ToggleLevels => s.color_by_level = !s.color_by_level,
             Action::Reset => {
                 (self.settings, self.refiner) = self.home;
                 self.pan = [0.0; 3];

@@ -171,7 +171,16 @@ impl Method for PackMethod<'_> {
         out: &mut FrameBuffers,
     ) -> Result<FrameReport> {
         let (cam, opts) = frame(&self.scene, view, cfg);
-        Ok(render_pack_from(&self.scene, &cam, &opts, &mut self.table, out, |_, _| {})?.report())
+        Ok(render_pack_from(
+            &self.scene,
+            &cam,
+            &opts,
+            None,
+            &mut self.table,
+            out,
+            |_, _| {},
+        )?
+        .report())
     }
 }
 
