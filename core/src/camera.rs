@@ -302,3 +302,30 @@ mod tests {
         }
     }
 }
+
+/// An interval of camera depth (distance along the view direction), world units: the depth range a
+/// scene's objects share (`TgFrame::share_depth_range`, `QsFrame::share_depth_range`). Here rather
+/// than with either format, so that each compiles without the other.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthRange {
+    /// Nearest camera depth.
+    pub near: f64,
+    /// Farthest camera depth.
+    pub far: f64,
+}
+
+impl DepthRange {
+    /// The empty range, the identity of [`DepthRange::union`].
+    pub const EMPTY: DepthRange = DepthRange {
+        near: f64::INFINITY,
+        far: f64::NEG_INFINITY,
+    };
+
+    /// The smallest range holding both.
+    pub fn union(self, other: DepthRange) -> DepthRange {
+        DepthRange {
+            near: self.near.min(other.near),
+            far: self.far.max(other.far),
+        }
+    }
+}

@@ -271,9 +271,9 @@ impl QsFrame {
 
     /// Maps depth over `range` (camera depths, world units) instead of this file's own root
     /// spheres, so that several objects drawn into one depth buffer z-test against each other (a
-    /// scene: `crate::scene`, as [`crate::tg::TgFrame::share_depth_range`] does for tri-grids).
+    /// scene: `crate::scene`, as `TgFrame::share_depth_range` does for tri-grids).
     /// Depths outside the range clamp to its ends.
-    pub fn share_depth_range(&mut self, range: crate::tg::frame::DepthRange) {
+    pub fn share_depth_range(&mut self, range: crate::camera::DepthRange) {
         let near = f64::from(self.near_w);
         let lo = range.near * self.w_per_unit;
         let hi = range.far * self.w_per_unit;

@@ -401,11 +401,11 @@ mod tests {
 mod render_tests {
     #![allow(clippy::float_arithmetic)]
     use super::*;
-    use crate::splat::NullSink;
     use crate::camera::{Camera, Placement, Sphere as BSphere, View, STANDARD_VIEWS};
     use crate::qs::frame::QsRenderOptions;
     use crate::qs::table::sphere;
     use crate::qs::write::{bake_qs, tests::uv_sphere, QsBakeOptions};
+    use crate::splat::NullSink;
     use std::collections::HashMap;
     use std::vec::Vec;
 

@@ -655,23 +655,9 @@ fn depth_map(w_lo: f64, w_hi: f64, near_w: i32) -> (i32, u64) {
     )
 }
 
-/// An interval of camera depth (distance along the view direction), world units: the depth range a
-/// scene's objects share ([`TgFrame::share_depth_range`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DepthRange {
-    /// Nearest camera depth.
-    pub near: f64,
-    /// Farthest camera depth.
-    pub far: f64,
-}
+pub use crate::camera::DepthRange;
 
 impl DepthRange {
-    /// The empty range, the identity of [`DepthRange::union`].
-    pub const EMPTY: DepthRange = DepthRange {
-        near: f64::INFINITY,
-        far: f64::NEG_INFINITY,
-    };
-
     /// The camera depths of the grid's root cube placed by `placement`: the extremes over its eight
     /// corners (camera depth is linear, so they bound the whole cube).
     pub fn of_root_cube(header: &Header, placement: &Placement, camera: &Camera) -> DepthRange {
@@ -686,14 +672,6 @@ impl DepthRange {
             r.far = r.far.max(z);
         }
         r
-    }
-
-    /// The smallest range holding both.
-    pub fn union(self, other: DepthRange) -> DepthRange {
-        DepthRange {
-            near: self.near.min(other.near),
-            far: self.far.max(other.far),
-        }
     }
 }
 
