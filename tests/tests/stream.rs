@@ -375,6 +375,64 @@ fn close_view_reads_a_fraction_of_the_file_and_prefetch_fills_the_rest_coarse_fi
     eprintln!("close view: {frames} frames, {read} of {} bytes", big.len());
 }
 
+/// A refined frame needs more blocks than a 64 KB or 128 KB cache holds (the std view at 1 px
+/// draws from about 330 blocks of 4 KB): it is drawn in passes over its walk, each pass reading in
+/// ascending block order, and ends on exactly the resident frame, having read each needed block
+/// about once (never more than the file).
+#[test]
+fn a_refined_frame_larger_than_the_cache_is_drawn_in_passes_to_the_resident_frame() {
+    let Some((big, _)) = bunny() else {
+        return;
+    };
+    let mut failures = Vec::new();
+    for cache in [64 * 1024, 128 * 1024] {
+        for (view_name, view) in STANDARD_VIEWS {
+            let settings = Settings {
+                view,
+                ..Settings::default()
+            };
+            let (crc, depth) = resident(big, &settings);
+            let mut src = MemSource::new(big);
+            let mut fb = FrameBuffers::new();
+            let out = match stream_render(&mut src, &settings, &opts(cache), &mut fb) {
+                Ok(o) => o,
+                Err(e) => {
+                    failures.push(format!("{view_name}, {} KB: {e:#}", cache / 1024));
+                    continue;
+                }
+            };
+            if fb.crc() != crc || fb.depth.as_flattened() != &depth[..] {
+                failures.push(format!(
+                    "{view_name}, {} KB: frame CRC {:08x}, resident {crc:08x}",
+                    cache / 1024,
+                    fb.crc()
+                ));
+            }
+            let c = out.counters;
+            assert!(
+                c.bytes_read <= big.len() as u64,
+                "{view_name}, {} KB: read {} of {} bytes",
+                cache / 1024,
+                c.bytes_read,
+                big.len()
+            );
+            // The far view fits: it converges without passes.
+            assert_eq!(out.passes == 0, view_name == "far", "{view_name}");
+            eprintln!(
+                "{view_name:5} {:3} KB cache: {:3} passes, {:4} blocks ({:8} bytes) for the refined \
+                 frame, {:8} in all of {:8}",
+                cache / 1024,
+                out.passes,
+                out.refined_reads,
+                out.refined_bytes,
+                c.bytes_read,
+                big.len()
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 // ---- Hostile files with valid CRCs (issue 17) ------------------------------------------------------
 //
 // Each file below is a real bake with one structural fault, every CRC recomputed (`seal`), so that
