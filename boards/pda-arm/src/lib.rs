@@ -35,13 +35,13 @@ pub mod scene;
 pub mod stream;
 pub mod views;
 
-#[cfg(feature = "stream")]
-pub use views::render_stream_view;
 pub use views::{
     frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, Format, FrameLine,
     FrameReport, FrameSpec, Model, ModelError, Phase, Shadows, Targets, ViewError, CUTOFFS_PX,
     QSPLAT_MAGIC_PREFIX, SHADOW_MAP_SIZE, SHADOW_MODES,
 };
+#[cfg(feature = "stream")]
+pub use views::{render_stream_pass, render_stream_view};
 
 use pocketsplat_core::crc::Crc32;
 

@@ -5,16 +5,21 @@
 //! 2. an orbit of the std view's camera, [`ORBIT_STEPS`] steps of [`ORBIT_STEP_DEG`] in azimuth, one
 //!    frame each, reading at most [`IO_BUDGET_BYTES`] after each ([`Leg::Orbit`]);
 //! 3. the std view again until converged, after the orbit has evicted what it held
-//!    ([`Leg::Return`]).
+//!    ([`Leg::Return`]);
+//! 4. the std view refined at 2 px and then at 1 px ([`Leg::Px2`], [`Leg::Px1`]): frames that need
+//!    far more blocks than the cache holds, drawn in passes over their walk
+//!    ([`TgStream::render_pass`], one line per pass, the buffers kept between passes) until the
+//!    last pass completes the frame the resident file gives.
 //!
 //! The sequence is [`stream_frames`], called by the firmware over semihosting and by the host tests
 //! over the same image file, so both print the same lines; a converged frame is the frame the
 //! resident file gives ([`crate::render_view`]), and the tests check that too.
 //!
-//! Why [`STREAM_CUTOFF_PX`] is 16: a frame converges only when every block it wants is resident at
-//! once. The depth-6 bunny in 4 KB blocks holds 16 of them in 64 KB; its std view wants about 40 at
+//! Why [`STREAM_CUTOFF_PX`] is 16 for the first three legs: a frame drawn whole converges only
+//! when every block it wants is resident at once. The depth-6 bunny in 4 KB blocks holds 16 of them in 64 KB; its std view wants about 40 at
 //! 8 px and more still below (nearly all 5 MB at 1 px), and 5 at 16 px. Finer frames are drawn
-//! coarser where blocks are absent, which is the point of streaming, but never converge.
+//! coarser where blocks are absent, which is the point of streaming, but never converge whole;
+//! the refined legs draw them in passes instead.
 
 use core::fmt;
 
@@ -22,7 +27,7 @@ use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::stream::torture::Flaky;
 use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
 
-use crate::{render_stream_view, Drawn, Phase, Targets, ViewError, WIDTH};
+use crate::{render_stream_pass, render_stream_view, Drawn, Phase, Targets, ViewError, WIDTH};
 
 /// Bytes of block cache (RAM, a static on the device).
 pub const CACHE_BYTES: usize = 64 * 1024;
@@ -42,6 +47,14 @@ pub const ORBIT_STEP_DEG: u32 = 15;
 /// Frames a leg that waits for convergence may take before the sequence moves on (drawing what it
 /// has: a card that stopped answering must not stop the firmware).
 pub const MAX_CONVERGE_FRAMES: u32 = 64;
+/// Passes a refined leg may take before the sequence moves on.
+pub const MAX_PASSES: u32 = 1024;
+/// Consecutive passes that read nothing intact after which a refined leg gives up (a card that
+/// stopped answering): twice the longest backoff of a failed block (64 frames), so that a pass
+/// waiting out a backoff is not taken for a card that is gone.
+pub const MAX_IDLE_PASSES: u32 = 130;
+/// Bytes read after each pass of a refined leg at most: what one pass queues fits in it.
+pub const REFINE_IO_BUDGET_BYTES: u32 = 32 * 1024;
 
 /// `src` through core's torture source with this build's fixed seed: 10 % of reads fail, 10 % arrive
 /// with one bit flipped. The `selftest-flaky` firmware and its host twin stream through it, so that
@@ -139,19 +152,39 @@ pub enum Leg {
     Orbit,
     /// The std view again, until converged.
     Return,
+    /// The std view at 2 px, drawn in passes until the refined frame is complete.
+    Px2,
+    /// The std view at 1 px, likewise.
+    Px1,
 }
 
 impl Leg {
     /// Every leg, in order.
-    pub const ALL: [Leg; 3] = [Leg::Std, Leg::Orbit, Leg::Return];
+    pub const ALL: [Leg; 5] = [Leg::Std, Leg::Orbit, Leg::Return, Leg::Px2, Leg::Px1];
 
-    /// `std`, `orbit` or `return`.
+    /// `std`, `orbit`, `return`, `px2` or `px1`.
     pub fn name(self) -> &'static str {
         match self {
             Leg::Std => "std",
             Leg::Orbit => "orbit",
             Leg::Return => "return",
+            Leg::Px2 => "px2",
+            Leg::Px1 => "px1",
         }
+    }
+
+    /// The LOD cutoff of the leg's frames, pixels.
+    pub fn cutoff_px(self) -> u8 {
+        match self {
+            Leg::Std | Leg::Orbit | Leg::Return => STREAM_CUTOFF_PX,
+            Leg::Px2 => 2,
+            Leg::Px1 => 1,
+        }
+    }
+
+    /// Whether the leg draws a refined frame in passes (one line per pass).
+    pub fn passes(self) -> bool {
+        matches!(self, Leg::Px2 | Leg::Px1)
     }
 
     /// The leg called `name`.
@@ -358,7 +391,6 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
 ) -> Result<StreamTotals, StreamRunError<C::Error>> {
     let mut stream =
         TgStream::open(src, mem.data, mem.slots, mem.blocks).map_err(StreamRunError::Open)?;
-    let cutoff = f32::from(STREAM_CUTOFF_PX);
     let (mut failed_before, mut read_before, mut marker) = (0, 0, false);
     let mut frame = |stream: &mut TgStream<'_>,
                      src: &mut C,
@@ -366,9 +398,14 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
                      index: u32,
                      az_deg: u32|
      -> Result<StreamFrame, StreamRunError<C::Error>> {
-        let drawn: Drawn =
-            render_stream_view(stream, orbit_view(az_deg), cutoff, targets, &mut mark)
-                .map_err(StreamRunError::View)?;
+        let cutoff = f32::from(leg.cutoff_px());
+        let view = orbit_view(az_deg);
+        let drawn: Drawn = if leg.passes() {
+            render_stream_pass(stream, view, cutoff, targets, index == 0, &mut mark)
+        } else {
+            render_stream_view(stream, view, cutoff, targets, &mut mark)
+        }
+        .map_err(StreamRunError::View)?;
         // A read that failed since the last frame (the card erred, or was pulled): the frame is
         // drawn with what is resident, and says so on screen.
         // The marker stays up from a failed read until reads succeed again with none failing (a
@@ -381,12 +418,24 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         (failed_before, read_before) = (failed_before + failed, c.bytes_read);
         marker = failed > 0 || stream.inconsistent() > 0 || (marker && !read_ok);
         let mut fb = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth);
-        if marker {
+        // A refined frame's buffers carry over between its passes: the marker is not painted into
+        // them (the line still says it), or it would stay in the frame.
+        if marker && !leg.passes() {
             draw_error_marker(&mut fb);
         }
         let crc = fb.crc();
-        let missing = stream.missing();
-        let served = stream.serve(src, IO_BUDGET_BYTES);
+        // A pass before the last is not a whole frame: it misses at least its resume point.
+        let missing = if leg.passes() && !stream.refined_done() {
+            stream.missing().max(1)
+        } else {
+            stream.missing()
+        };
+        let budget = if leg.passes() {
+            REFINE_IO_BUDGET_BYTES
+        } else {
+            IO_BUDGET_BYTES
+        };
+        let served = stream.serve(src, budget);
         let line = StreamFrame {
             leg,
             index,
@@ -407,6 +456,30 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         if leg == Leg::Orbit {
             for k in 0..ORBIT_STEPS {
                 frame(&mut stream, src, leg, k, k * ORBIT_STEP_DEG)?;
+            }
+            continue;
+        }
+        if leg.passes() {
+            // Until the refined frame is complete, or while reads keep coming.
+            let intact = |s: &TgStream<'_>| {
+                let c = s.counters();
+                c.reads - c.read_errors - c.crc_errors - c.structure_errors
+            };
+            let (mut index, mut idle) = (0, 0);
+            loop {
+                let before = intact(&stream);
+                if frame(&mut stream, src, leg, index, 0)?.converged() {
+                    break;
+                }
+                idle = if intact(&stream) == before {
+                    idle + 1
+                } else {
+                    0
+                };
+                index += 1;
+                if index >= MAX_PASSES || idle >= MAX_IDLE_PASSES {
+                    break;
+                }
             }
             continue;
         }

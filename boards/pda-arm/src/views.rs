@@ -611,6 +611,50 @@ pub fn render_stream_view(
     )
 }
 
+/// The next pass of a refined frame of `stream` ([`TgStream::render_pass`]) at `view` and
+/// `cutoff_px` into `targets`: as [`render_stream_view`], but the colour and depth buffers are
+/// cleared only for the first pass (`first`, which also starts the refined frame), so that the
+/// passes add up to the frame the resident file gives.
+///
+/// # Errors
+/// When the frame cannot be set up ([`ViewError::TriGrid`]).
+#[cfg(feature = "stream")]
+pub fn render_stream_pass(
+    stream: &mut TgStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut Targets<'_>,
+    first: bool,
+    mut mark: impl FnMut(Phase),
+) -> Result<Drawn, ViewError> {
+    mark(Phase::Setup);
+    let (cam, light) = view_camera(stream.header().bounds, view);
+    let frame = tg_frame(stream.header(), &cam, cutoff_px)?;
+    mark(Phase::Table);
+    let table_rebuilt =
+        targets
+            .table
+            .update(&[DEFAULT_MATERIAL], light, camera::scale(cam.forward, -1.0));
+    mark(Phase::Clear);
+    let mut fb = Framebuffer::new(targets.color, targets.depth);
+    if first {
+        fb.clear(0);
+        stream.begin_refined();
+    }
+    mark(Phase::Traverse);
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table: targets.table,
+        kernel: KERNEL,
+    };
+    let stats = stream.render_pass(&frame, &mut sink);
+    mark(Phase::End);
+    Ok(Drawn {
+        stats,
+        table_rebuilt,
+    })
+}
+
 /// The camera of `view` around a model with `bounds`, and the light (a unit vector): the start of
 /// every frame's setup.
 fn view_camera(bounds: [[f32; 3]; 2], view: View) -> (Camera, camera::Vec3) {

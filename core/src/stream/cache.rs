@@ -139,6 +139,13 @@ impl<'a> BlockCache<'a> {
         }
     }
 
+    /// The frame that last used block `b`, when it is resident.
+    #[inline]
+    pub(crate) fn used(&self, b: usize) -> Option<u32> {
+        let e = self.blocks.get(b)?;
+        self.slots.get(usize::from(e.slot)).map(|s| s.used)
+    }
+
     /// `n` bytes at file offset `off`, when their block is resident (they never straddle blocks:
     /// arrays are 16-byte aligned and blocks are at least 512 bytes).
     #[inline]

@@ -12,6 +12,12 @@
 //!   QSplat priority, log-quantized splat size then screen row (§4.2). [`TgStream::serve`] reads the
 //!   best of them within an I/O budget per frame; the queue is cleared every frame (§3.4); when no
 //!   visible block is missing it prefetches the rest of the file coarse-to-fine.
+//! - A refined frame that needs more blocks than the cache holds is drawn in passes
+//!   ([`TgStream::render_pass`]): each pass skips the subtrees earlier passes drew, draws until its
+//!   first absent descent, then walks on without drawing to queue the blocks the next passes need
+//!   (as many as the unpinned cache keeps), which [`TgStream::serve`] reads in ascending block
+//!   order. The colour and depth buffers persist between passes and every splat is drawn once, in
+//!   the resident walk's order, so the last pass leaves exactly the resident frame.
 //! - A block that fails its CRC, or whose read fails, is absent: it is retried later with an
 //!   exponential backoff, counted in [`StreamCounters`], and the frame is drawn coarser meanwhile.
 //!   So is a block whose CRC is right but whose structure is not (`tg::read::check_block`); rules

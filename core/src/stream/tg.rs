@@ -1,12 +1,14 @@
 //! Streaming a `.tg` file: draw what is resident, queue what is missing, read the best of it within
 //! a budget per frame (Streaming QSplat §3, Fig. 3).
 
+use core::cell::Cell;
+
 use heapless::Vec;
 
 use super::cache::{BlockCache, BlockEntry, SlotEntry, NOT_QUEUED, NO_SLOT};
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
-use crate::splat::{SplatSink, Stats};
+use crate::splat::{SampleSplat, SplatSink, Stats};
 use crate::tg::read::{check_block, check_counts, parse_header, Header, LevelDir};
 use crate::tg::traverse::{render_nodes, NoShadows, NodeData, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
@@ -21,6 +23,8 @@ const MIN_BLOCK: usize = 512;
 const MAX_BACKOFF: u32 = 64;
 /// Priority of the root's own blocks: before anything else.
 const ROOT_PRIORITY: u32 = u32::MAX;
+/// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
+const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
 
 /// Splat size class: ⌊log_√2 size⌋ of the diameter in Q8 pixels (Streaming QSplat §4.2 uses
 /// k = √2: each class holds about twice the nodes of the one above).
@@ -180,6 +184,70 @@ pub struct TgStream<'a> {
     inconsistent: u32,
     frame: u32,
     counters: StreamCounters,
+    /// Blocks of the pinned (never evicted) coarse levels.
+    pinned_blocks: u32,
+    /// The refined frame being drawn in passes ([`TgStream::render_pass`]).
+    refine: Refine,
+    /// Whether the last frame was a pass: [`TgStream::serve`] then reads in block order.
+    passing: bool,
+}
+
+/// Where a refined frame drawn in passes stands: the cell the last pass stopped at (the path of
+/// indices from the root to it), or the frame's start.
+#[derive(Clone, Copy, Debug)]
+struct Refine {
+    /// Indices of the cursor's ancestors and itself, per level `0..=level`.
+    path: [u32; MAX_LEVELS],
+    /// Level of the cursor; `None`: the frame starts from the root.
+    level: Option<u8>,
+    /// Passes drawn of this refined frame.
+    passes: u32,
+    /// Whether the last pass drew the rest of the frame (nothing it needed was absent).
+    done: bool,
+}
+
+impl Refine {
+    const START: Self = Self {
+        path: [0; MAX_LEVELS],
+        level: None,
+        passes: 0,
+        done: false,
+    };
+}
+
+/// What a pass does at this point of its walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// A frame drawn whole from what is resident, coarser where blocks are absent.
+    Progressive,
+    /// A pass before its first absent block: skip what earlier passes drew, draw the rest.
+    Draw,
+    /// After the first absent block: draw nothing more, walk on through resident blocks to queue
+    /// the next ones the frame needs, in file order.
+    Lookahead,
+    /// Enough is queued: leave the rest of the frame alone.
+    Done,
+}
+
+/// A sink that draws only while a pass has drawn nothing out of order yet.
+struct PassSink<'a, S> {
+    inner: &'a mut S,
+    drawing: &'a Cell<bool>,
+}
+
+impl<S: SplatSink> SplatSink for PassSink<'_, S> {
+    #[inline(always)]
+    fn splat(&mut self, s: &SampleSplat) {
+        if self.drawing.get() {
+            self.inner.splat(s);
+        }
+    }
+    #[inline(always)]
+    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
+        if self.drawing.get() {
+            self.inner.pixel(s, x, y);
+        }
+    }
 }
 
 impl<'a> TgStream<'a> {
@@ -232,6 +300,9 @@ impl<'a> TgStream<'a> {
             missing: 1,
             frame: 0,
             counters: StreamCounters::default(),
+            pinned_blocks: 0,
+            refine: Refine::START,
+            passing: false,
         };
         s.counters.reads = header_fails + 1;
         s.counters.bytes_read = (u64::from(header_fails) + 1) * bs as u64;
@@ -333,6 +404,7 @@ impl<'a> TgStream<'a> {
                 break;
             }
             self.cache.pinned = l as i16;
+            self.pinned_blocks = count as u32;
         }
     }
 
@@ -381,8 +453,72 @@ impl<'a> TgStream<'a> {
         hooks: &mut H,
         sink: &mut S,
     ) -> Stats {
+        let drawing = Cell::new(true);
+        self.walk(frame, hooks, sink, Phase::Progressive, &drawing)
+    }
+
+    /// Starts a refined frame drawn in passes ([`TgStream::render_pass`]): the next pass begins at
+    /// the root. The caller clears its framebuffer once, here, not between passes.
+    pub fn begin_refined(&mut self) {
+        self.refine = Refine::START;
+    }
+
+    /// Draws the next pass of a refined frame into `sink`, whose colour and depth persist between
+    /// passes: a frame that needs more blocks than the cache holds is drawn as consecutive runs of
+    /// its depth-first walk, so that, once [`TgStream::refined_done`], the framebuffer holds exactly
+    /// the frame of the resident file (every splat drawn once, in the resident order).
+    ///
+    /// A pass skips the subtrees earlier passes drew, draws until the first descent whose blocks
+    /// are absent, and stops drawing there (that cell is where the next pass resumes); it then walks
+    /// on through resident blocks, queueing the absent ones it meets, until what it touched and
+    /// queued would fill the unpinned cache. [`TgStream::serve`] then reads the queue in ascending
+    /// block order (the resume point's blocks first), each block about once per refined frame.
+    /// The walk never descends where resident blocks disagree (drawn coarser, as in
+    /// [`TgStream::render`], and the frame does not converge).
+    pub fn render_pass<S: SplatSink>(&mut self, frame: &TgFrame, sink: &mut S) -> Stats {
+        let drawing = Cell::new(true);
+        let mut pass = PassSink {
+            inner: sink,
+            drawing: &drawing,
+        };
+        self.refine.passes += 1;
+        self.walk(frame, &mut NoShadows, &mut pass, Phase::Draw, &drawing)
+    }
+
+    /// Whether the last [`TgStream::render_pass`] finished its refined frame.
+    pub fn refined_done(&self) -> bool {
+        self.refine.done
+    }
+
+    /// Passes drawn of the current refined frame.
+    pub fn passes(&self) -> u32 {
+        self.refine.passes
+    }
+
+    /// Blocks the last frame (or pass) used that the eviction policy keeps for it, unpinned, plus
+    /// those it queued: more than the cache holds means the frame cannot be drawn whole from the
+    /// cache, and needs [`TgStream::render_pass`].
+    pub fn working_set(&self) -> u32 {
+        let used = self
+            .cache
+            .slots
+            .iter()
+            .filter(|e| e.used == self.frame && e.block != super::cache::NO_BLOCK)
+            .count() as u32;
+        used + self.queue.len() as u32
+    }
+
+    fn walk<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+        phase: Phase,
+        drawing: &Cell<bool>,
+    ) -> Stats {
         self.frame = self.frame.wrapping_add(1).max(1);
         self.counters.frames += 1;
+        self.passing = phase != Phase::Progressive;
         for r in &self.queue {
             if let Some(e) = self.cache.blocks.get_mut(r.block as usize) {
                 e.queued = NOT_QUEUED;
@@ -393,6 +529,29 @@ impl<'a> TgStream<'a> {
         let mut inconsistent = 0u32;
         // Light-ordered levels visit siblings out of index order: there only the node budget holds.
         let in_order = (0..self.header.levels()).all(|l| !hooks.ordered(l));
+        let slots = self.cache.capacity() as u32;
+        // A descent touches or queues at most 3 blocks (attributes, masks, the group entry) past
+        // the check, so the lookahead stops 3 short of the unpinned cache.
+        let room = slots.saturating_sub(self.pinned_blocks + 3).max(1);
+        let mut pass = PassState {
+            phase,
+            // Before its first absent block a pass's touches do not keep blocks for it: what it
+            // draws there is done for this refined frame.
+            stamp: if phase == Phase::Progressive {
+                self.frame
+            } else {
+                self.frame.wrapping_sub(1)
+            },
+            drawing,
+            resume: self.refine,
+            stack: [(0, 0, 0); MAX_LEVELS],
+            stop: None,
+            path: [0; MAX_LEVELS],
+            room: room.min(QUEUE_CAPACITY as u32),
+            kept: 0,
+            lookahead: LOOKAHEAD_DESCENTS,
+            stopping: false,
+        };
         let mut nodes = StreamNodes {
             cache: &mut self.cache,
             queue: &mut self.queue,
@@ -407,6 +566,7 @@ impl<'a> TgStream<'a> {
             depth: self.header.depth,
             mask_bytes: u64::from(self.header.mask_bytes()),
             frame: self.frame,
+            pass: &mut pass,
         };
         // The root's own attribute and mask are what the first splat needs.
         let root = nodes.ranges(0, 0, 1, None);
@@ -414,8 +574,18 @@ impl<'a> TgStream<'a> {
             render_nodes(nodes, frame, hooks, sink)
         } else {
             nodes.request(&root, ROOT_PRIORITY);
+            nodes.pass.phase = Phase::Lookahead;
             Stats::default()
         };
+        if phase != Phase::Progressive {
+            // A pass that met no absent block drew the rest of the frame; one that did resumes
+            // there next time.
+            self.refine.done = pass.phase == Phase::Draw;
+            if let Some(level) = pass.stop {
+                self.refine.level = Some(level);
+                self.refine.path = pass.path;
+            }
+        }
         self.counters.dropped += dropped;
         self.counters.inconsistent += inconsistent;
         self.inconsistent = inconsistent;
@@ -434,6 +604,23 @@ impl<'a> TgStream<'a> {
         let bs = self.header.block_size();
         let mut left = (budget_bytes as usize).max(bs);
         let mut report = ServeReport::default();
+        if self.passing {
+            // A pass's queue, best first within the budget, then read in ascending block order:
+            // an SD card (or a disk) serves a forward sweep best.
+            let mut batch: Vec<u32, QUEUE_CAPACITY> = Vec::new();
+            while left >= bs {
+                let Some(b) = self.pop_best() else { break };
+                if batch.push(b as u32).is_err() {
+                    break;
+                }
+                left -= bs;
+            }
+            batch.sort_unstable();
+            for &b in &batch {
+                self.load(src, b as usize, false, &mut report);
+            }
+            return report;
+        }
         while left >= bs {
             let (b, prefetch) = match self.pop_best() {
                 Some(b) => (b, false),
@@ -443,52 +630,64 @@ impl<'a> TgStream<'a> {
                 },
                 None => break,
             };
-            let class = self.cache.blocks[b].class;
-            let Some(s) = self.cache.victim(class, self.frame, prefetch) else {
-                if prefetch {
-                    break;
-                }
-                continue;
-            };
-            if self.cache.evict(s) {
-                self.counters.evictions += 1;
-            }
-            left -= bs;
-            report.reads += 1;
-            report.bytes += bs as u32;
-            report.prefetched += u32::from(prefetch);
-            self.counters.reads += 1;
-            self.counters.bytes_read += bs as u64;
-            self.counters.prefetched += u32::from(prefetch);
-            let want = self.cache.blocks[b].crc;
-            let buf = self.cache.slot_bytes(s);
-            let ok = match src.read_at((b as u64) * bs as u64, buf) {
-                Err(_) => {
-                    self.counters.read_errors += 1;
-                    false
-                }
-                Ok(()) if crc32(buf) != want => {
-                    self.counters.crc_errors += 1;
-                    false
-                }
-                // Sealed but malformed: absent, exactly as a damaged block (issue 17).
-                Ok(()) if check_block(&self.header, &self.dirs, b as u32, buf).is_err() => {
-                    self.counters.structure_errors += 1;
-                    false
-                }
-                Ok(()) => true,
-            };
-            if ok {
-                self.cache.install(s, b, self.frame);
-            } else {
-                report.failed += 1;
-                let e = &mut self.cache.blocks[b];
-                e.fails = e.fails.saturating_add(1);
-                let backoff = (1u32 << u32::from(e.fails).min(6)).min(MAX_BACKOFF);
-                e.retry_at = self.frame.wrapping_add(backoff);
+            match self.load(src, b, prefetch, &mut report) {
+                Some(()) => left -= bs,
+                None if prefetch => break,
+                None => {}
             }
         }
         report
+    }
+
+    /// Reads block `b` into a slot the eviction policy gives (`None`: it gives none) and checks it;
+    /// a damaged or failed block stays absent and waits out a backoff.
+    fn load<C: ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        b: usize,
+        prefetch: bool,
+        report: &mut ServeReport,
+    ) -> Option<()> {
+        let bs = self.header.block_size();
+        let class = self.cache.blocks[b].class;
+        let s = self.cache.victim(class, self.frame, prefetch)?;
+        if self.cache.evict(s) {
+            self.counters.evictions += 1;
+        }
+        report.reads += 1;
+        report.bytes += bs as u32;
+        report.prefetched += u32::from(prefetch);
+        self.counters.reads += 1;
+        self.counters.bytes_read += bs as u64;
+        self.counters.prefetched += u32::from(prefetch);
+        let want = self.cache.blocks[b].crc;
+        let buf = self.cache.slot_bytes(s);
+        let ok = match src.read_at((b as u64) * bs as u64, buf) {
+            Err(_) => {
+                self.counters.read_errors += 1;
+                false
+            }
+            Ok(()) if crc32(buf) != want => {
+                self.counters.crc_errors += 1;
+                false
+            }
+            // Sealed but malformed: absent, exactly as a damaged block (issue 17).
+            Ok(()) if check_block(&self.header, &self.dirs, b as u32, buf).is_err() => {
+                self.counters.structure_errors += 1;
+                false
+            }
+            Ok(()) => true,
+        };
+        if ok {
+            self.cache.install(s, b, self.frame);
+        } else {
+            report.failed += 1;
+            let e = &mut self.cache.blocks[b];
+            e.fails = e.fails.saturating_add(1);
+            let backoff = (1u32 << u32::from(e.fails).min(6)).min(MAX_BACKOFF);
+            e.retry_at = self.frame.wrapping_add(backoff);
+        }
+        Some(())
     }
 
     /// Whether block `b` may be read now (not waiting out a backoff).
@@ -525,7 +724,7 @@ impl<'a> TgStream<'a> {
 }
 
 /// The traversal's view of a stream: reads through the cache, asks for what is missing.
-struct StreamNodes<'s, 'a> {
+struct StreamNodes<'s, 'a, 'p> {
     cache: &'s mut BlockCache<'a>,
     queue: &'s mut Vec<Request, QUEUE_CAPACITY>,
     dropped: &'s mut u32,
@@ -544,12 +743,38 @@ struct StreamNodes<'s, 'a> {
     depth: u8,
     mask_bytes: u64,
     frame: u32,
+    pass: &'s mut PassState<'p>,
+}
+
+/// A pass's walk state ([`TgStream::render_pass`]); a progressive frame has [`Phase::Progressive`].
+struct PassState<'s> {
+    phase: Phase,
+    /// What a touch marks a block used at: the frame, or the frame before while a pass draws
+    /// (blocks it only drew from are not kept for the later passes).
+    stamp: u32,
+    /// Cleared at the pass's first absent block: nothing more is drawn.
+    drawing: &'s Cell<bool>,
+    /// Where this pass resumes: cells before this path in walk order are skipped.
+    resume: Refine,
+    /// Per level, the last descent taken: (cell, its first child, its children).
+    stack: [(u32, u32, u32); MAX_LEVELS],
+    /// The level of the cell this pass stopped at (its first absent descent), with `path`.
+    stop: Option<u8>,
+    path: [u32; MAX_LEVELS],
+    /// Blocks the lookahead may keep or queue: the unpinned cache, less one.
+    room: u32,
+    /// Unpinned blocks marked used since the stop, plus those queued.
+    kept: u32,
+    /// Descents the lookahead may still take.
+    lookahead: u32,
+    /// The next request is the stop's own.
+    stopping: bool,
 }
 
 /// Byte ranges (offset, length) one descent reads: children's attributes and masks, parent's group.
 type Ranges = [(u64, u64); 3];
 
-impl StreamNodes<'_, '_> {
+impl StreamNodes<'_, '_, '_> {
     /// Whether the walk may enter the `n` cells from `first` at `level` (a sibling group): they lie
     /// inside the level, after every group already entered there this frame (each cell has one
     /// parent, so a valid file never enters a cell twice), and within the frame's node budget. This
@@ -638,7 +863,6 @@ impl StreamNodes<'_, '_> {
 
     fn resident(&mut self, ranges: &Ranges) -> bool {
         let mut all = true;
-        let frame = self.frame;
         let mut touch = [usize::MAX; 8];
         let mut n = 0;
         self.blocks(ranges, |b| {
@@ -649,10 +873,44 @@ impl StreamNodes<'_, '_> {
                 all = false;
             }
         });
+        let stamp = self.pass.stamp;
         for &b in &touch[..n] {
-            all &= self.cache.touch(b, frame);
+            if self.pass.phase == Phase::Lookahead
+                && self.cache.used(b).is_some_and(|u| u != stamp)
+                && self.unpinned(b)
+            {
+                self.pass.kept += 1;
+            }
+            all &= self.cache.touch(b, stamp);
         }
         all
+    }
+
+    /// Whether block `b` may be evicted (its class is not pinned).
+    fn unpinned(&self, b: usize) -> bool {
+        self.cache
+            .blocks
+            .get(b)
+            .is_some_and(|e| i16::from(e.class) > self.cache.pinned)
+    }
+
+    /// The pass stops drawing at cell `index` of `level`, whose children are absent: the next pass
+    /// resumes there. The blocks of the descents down to it are kept for that pass.
+    fn stop_at(&mut self, level: u8, index: u32) {
+        let l = usize::from(level);
+        for k in 0..l {
+            self.pass.path[k] = self.pass.stack[k].0;
+        }
+        self.pass.path[l] = index;
+        self.pass.stop = Some(level);
+        self.pass.phase = Phase::Lookahead;
+        self.pass.drawing.set(false);
+        self.pass.stamp = self.frame;
+        for k in 0..l {
+            let (i, first, n) = self.pass.stack[k];
+            let r = self.ranges(k as u8 + 1, first, n, Some(i));
+            self.resident(&r);
+        }
     }
 
     fn request(&mut self, ranges: &Ranges, priority: u32) {
@@ -665,25 +923,38 @@ impl StreamNodes<'_, '_> {
             }
         });
         for &b in &want[..n] {
-            self.push(b, priority);
+            // A pass reads in file order (what an SD card serves best), its stop first.
+            let p = match self.pass.phase {
+                Phase::Lookahead if priority != ROOT_PRIORITY => {
+                    u32::MAX - 1 - (b as u32).min(u32::MAX - 2)
+                }
+                _ => priority,
+            };
+            if self.push(b, p) && self.pass.phase == Phase::Lookahead {
+                self.pass.kept += 1;
+            }
+        }
+        if self.pass.phase == Phase::Lookahead && self.pass.kept >= self.pass.room {
+            self.pass.phase = Phase::Done;
         }
     }
 
     /// Queues block `b` with `priority`, raising it if already queued (a block's priority is its
     /// best node's, §3.4); when the queue is full the lowest request makes room or this one is
     /// dropped.
-    fn push(&mut self, b: usize, priority: u32) {
+    /// Returns whether the block was newly queued.
+    fn push(&mut self, b: usize, priority: u32) -> bool {
         let Some(e) = self.cache.blocks.get(b) else {
             *self.dropped += 1; // outside the file: a damaged directory; never converges
-            return;
+            return false;
         };
         if e.slot != NO_SLOT {
-            return;
+            return false;
         }
         if e.queued != NOT_QUEUED {
             let r = &mut self.queue[usize::from(e.queued)];
             r.priority = r.priority.max(priority);
-            return;
+            return false;
         }
         let req = Request {
             priority,
@@ -691,7 +962,7 @@ impl StreamNodes<'_, '_> {
         };
         if self.queue.push(req).is_ok() {
             self.cache.blocks[b].queued = (self.queue.len() - 1) as u16;
-            return;
+            return true;
         }
         let (i, low) = self
             .queue
@@ -706,6 +977,7 @@ impl StreamNodes<'_, '_> {
             self.queue[i] = req;
             self.cache.blocks[b].queued = i as u16;
         }
+        false
     }
 
     #[inline]
@@ -721,7 +993,7 @@ impl StreamNodes<'_, '_> {
     }
 }
 
-impl NodeData for StreamNodes<'_, '_> {
+impl NodeData for StreamNodes<'_, '_, '_> {
     const STREAMED: bool = true;
 
     fn shape(&self) -> (u8, u8) {
@@ -766,13 +1038,41 @@ impl NodeData for StreamNodes<'_, '_> {
         }
         let r = self.ranges(level + 1, first_child, n, Some(index));
         if !self.resident(&r) {
+            if self.pass.phase == Phase::Draw {
+                self.stop_at(level, index);
+                self.pass.stopping = true;
+                // What of the stop's own blocks is here stays for the next pass too.
+                self.resident(&r);
+            }
             return false;
         }
         if !self.group_consistent(level, index, first_child, n) {
             *self.inconsistent += 1;
             return false;
         }
+        if self.pass.phase == Phase::Lookahead {
+            // What the lookahead keeps must leave room for what it queues: stop when full.
+            self.pass.lookahead = self.pass.lookahead.saturating_sub(1);
+            if self.pass.lookahead == 0 || self.pass.kept >= self.pass.room {
+                self.pass.phase = Phase::Done;
+            }
+        }
+        if let Some(e) = self.pass.stack.get_mut(usize::from(level)) {
+            *e = (index, first_child, n);
+        }
         true
+    }
+
+    #[inline]
+    fn skip(&mut self, level: u8, index: u32) -> bool {
+        match self.pass.phase {
+            Phase::Progressive => false,
+            Phase::Done => true,
+            Phase::Draw | Phase::Lookahead => match self.pass.resume.level {
+                Some(c) if level <= c => index < self.pass.resume.path[usize::from(level)],
+                _ => false,
+            },
+        }
     }
 
     fn request_children(
@@ -785,7 +1085,12 @@ impl NodeData for StreamNodes<'_, '_> {
         y_q8: i32,
     ) {
         let r = self.ranges(level + 1, first_child, n, Some(index));
-        self.request(&r, stream_priority(size_q8, y_q8));
+        let priority = if core::mem::take(&mut self.pass.stopping) {
+            ROOT_PRIORITY
+        } else {
+            stream_priority(size_q8, y_q8)
+        };
+        self.request(&r, priority);
     }
 }
 

@@ -110,6 +110,13 @@ pub trait NodeData {
         size_q8: i32,
         y_q8: i32,
     );
+    /// Whether the walk leaves cell `index` at `level` alone (neither draws nor descends into it):
+    /// a refined frame drawn in passes over subtrees skips what an earlier pass drew and what a
+    /// later one will (`crate::stream`). Asked only when [`NodeData::STREAMED`].
+    #[inline(always)]
+    fn skip(&mut self, _level: u8, _index: u32) -> bool {
+        false
+    }
 }
 
 /// A memory-resident grid: every block is present, reads are slices cut once per level.
@@ -568,6 +575,9 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         p: H::Pos,
         inside: bool,
     ) {
+        if D::STREAMED && self.data.skip(level, index) {
+            return;
+        }
         count!(self.stats.nodes_visited += 1);
         let f = self.frame;
         let l = usize::from(level);
@@ -687,13 +697,16 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             m &= m - 1;
             let k = child;
             child += 1;
+            let cm = self.mask(next, k);
+            let first = grand;
+            grand += (cm & Self::SLOT_BITS).count_ones();
+            if D::STREAMED && self.data.skip(next, k) {
+                continue;
+            }
             count!(self.stats.nodes_visited += 1);
             let d = disp[s];
             let cc = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
             let cp = self.hooks.child(p, n, s);
-            let cm = self.mask(next, k);
-            let first = grand;
-            grand += (cm & Self::SLOT_BITS).count_ones();
             if cc[2] - e >= lod {
                 self.draw(next, k, cm, cc, cp, true);
                 continue;

@@ -64,6 +64,8 @@ pub fn run(
             "cache_blocks": outcome.cache_blocks, "io_budget": opts.io_budget,
             "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
             "crc": format!("{:08x}", fb.crc()), "ms": t.elapsed().as_secs_f64() * 1e3,
+            "passes": outcome.passes, "refined_reads": outcome.refined_reads,
+            "refined_bytes": outcome.refined_bytes,
         });
         if let Some(h) = http {
             j["http"] = json!({
@@ -82,6 +84,20 @@ pub fn run(
             c.crc_errors,
             t.elapsed().as_secs_f64() * 1e3
         );
+        if outcome.passes > 0 {
+            // SD reading of the refined frame at a card's sustained rates (MB = 10^6 bytes).
+            let ms = |mb_s: f64| outcome.refined_bytes as f64 / (mb_s * 1e3);
+            eprintln!(
+                "the refined frame needed more blocks than the cache holds: drawn in {} passes, \
+                 reading {} blocks ({} bytes; {:.0} / {:.0} / {:.0} ms at 2 / 10 / 20 MB/s)",
+                outcome.passes,
+                outcome.refined_reads,
+                outcome.refined_bytes,
+                ms(2.0),
+                ms(10.0),
+                ms(20.0)
+            );
+        }
     }
     Ok(())
 }

@@ -121,6 +121,36 @@ pub fn stream_frame(
     Ok(stream.render(&frame, &mut sink))
 }
 
+/// Draws the next pass of a refined frame ([`TgStream::render_pass`]) into `out`, which is cleared
+/// only for the first pass (`first`): the passes' splats meet in one colour and depth buffer.
+///
+/// # Errors
+/// As [`stream_frame`].
+pub fn stream_pass(
+    stream: &mut TgStream<'_>,
+    cam: &Camera,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    first: bool,
+) -> Result<Stats> {
+    if settings.shadows != ShadowMode::Off {
+        bail!("--stream draws without shadows for now");
+    }
+    let frame = frame_setup(stream.header(), settings, cam, table)?;
+    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+    if first {
+        fb.clear(0);
+        stream.begin_refined();
+    }
+    let mut sink = ShadedRaster {
+        fb: &mut fb,
+        table,
+        kernel: settings.kernel,
+    };
+    Ok(stream.render_pass(&frame, &mut sink))
+}
+
 /// How `render --stream` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StreamOptions {
@@ -159,6 +189,13 @@ pub struct StreamOutcome {
     pub resident_blocks: usize,
     /// Capacity of the cache, blocks.
     pub cache_blocks: usize,
+    /// Passes of the refined frame, when it needed more blocks than the cache holds (0: the last
+    /// frame was drawn whole).
+    pub passes: u32,
+    /// Blocks and bytes read while drawing the refined frame in passes.
+    pub refined_reads: u32,
+    /// Bytes of those reads.
+    pub refined_bytes: u64,
 }
 
 /// Streams the `.tg` on `src` with a fixed camera until a frame misses nothing, leaving that frame
@@ -198,11 +235,32 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
         file_bytes,
         ..StreamOutcome::default()
     };
+    // Progressive frames until one converges, or until a frame needs more blocks than the cache
+    // holds: then the refined frame is drawn in passes over its walk (the depth buffer persists).
+    let mut refining = false;
+    let mut first_pass = false;
+    let mut at_refine = StreamCounters::default();
     loop {
-        outcome.stats = stream_frame(&mut stream, &cam, settings, &mut table, out)?;
+        if refining {
+            let s = stream_pass(&mut stream, &cam, settings, &mut table, out, first_pass)?;
+            first_pass = false;
+            outcome.stats.nodes_visited += s.nodes_visited;
+            outcome.stats.splats += s.splats;
+            outcome.stats.max_level = outcome.stats.max_level.max(s.max_level);
+            outcome.passes = stream.passes();
+        } else {
+            outcome.stats = stream_frame(&mut stream, &cam, settings, &mut table, out)?;
+        }
         outcome.frames += 1;
-        if stream.converged() {
+        if stream.converged() && (!refining || stream.refined_done()) {
             break;
+        }
+        if !refining && stream.working_set() as usize > stream.cache().capacity() {
+            refining = true;
+            first_pass = true;
+            at_refine = *stream.counters();
+            outcome.stats = Stats::default();
+            continue;
         }
         // A block that passed its CRC holds what the file holds: one that fails the structure
         // check, or resident blocks that disagree, fail the same way on every later frame. This
@@ -241,9 +299,14 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
             );
         }
         before_serve(src)?;
-        outcome.per_frame.push(stream.serve(src, opts.io_budget));
+        let r = stream.serve(src, opts.io_budget);
+        outcome.per_frame.push(r);
     }
     outcome.counters = *stream.counters();
+    if refining {
+        outcome.refined_reads = outcome.counters.reads - at_refine.reads;
+        outcome.refined_bytes = outcome.counters.bytes_read - at_refine.bytes_read;
+    }
     outcome.resident_blocks = stream.cache().resident();
     outcome.cache_blocks = stream.cache().capacity();
     Ok(outcome)
