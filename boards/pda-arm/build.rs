@@ -2,7 +2,7 @@
 //!
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
-//!   every other crate of the workspace never see it (STYLE.md 2).
+//!   every other crate of the workspace never see it (docs/ARCHITECTURE.md, Conventions 2).
 //! - With the `stream` feature, for the ARM firmware, `POCKETSPLAT_PDA_IMAGE` names the FAT disk image the firmware opens
 //!   on the host through semihosting at run time; its absolute path (the image need not exist yet,
 //!   and its bytes are not part of the build) is handed on as `POCKETSPLAT_PDA_IMAGE_FILE`.

@@ -1,5 +1,5 @@
 //! What a traversal emits and how it is counted: format-neutral, so a new format needs no raster
-//! change (DESIGN.md "The way data flows").
+//! change (docs/ARCHITECTURE.md "The way data flows").
 #![deny(clippy::float_arithmetic)]
 
 use crate::raster::{Framebuffer, Kernel, Splat};

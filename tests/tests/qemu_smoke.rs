@@ -1,6 +1,6 @@
 //! The firmware under QEMU, without a model: builds `boards/pda-arm` for thumbv7m-none-eabi, boots it
 //! on mps2-an385 with the runner of `.cargo/config.toml`, and checks what it reports against the host,
-//! which renders the same test-pattern frame with the same library function (DESIGN.md: same frames,
+//! which renders the same test-pattern frame with the same library function (docs/ARCHITECTURE.md: same frames,
 //! same CRC on ARM and host); that faults and panics end the run with a failure status instead of a
 //! hang; and that the instruction counter (`tests/qemu-plugin/icount.c`) counts exactly.
 //!

@@ -1,4 +1,4 @@
-//! Streaming torture tests (issue 7; STYLE.md 6): the bunny at paper level 5 (depth 6), read through
+//! Streaming torture tests (issue 7; docs/ARCHITECTURE.md, Conventions 6): the bunny at paper level 5 (depth 6), read through
 //! 512-byte chunks, prime-sized chunks, chunks in reverse order, 1 KB file blocks, and sources
 //! that fail or damage 10 % of reads at random (seeded), must converge to exactly the frame the
 //! fully resident file gives, for every standard view; with a cache smaller than the file too. A

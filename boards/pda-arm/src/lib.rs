@@ -2,7 +2,7 @@
 //!
 //! The board-independent half of the Cortex-M firmware: what it draws and how a frame is checksummed.
 //! It is `no_std` and builds for the host too, so the host tests compute the CRCs the firmware must
-//! print under QEMU by calling the very same functions (DESIGN.md: the ARM build and the host build
+//! print under QEMU by calling the very same functions (docs/ARCHITECTURE.md: the ARM build and the host build
 //! render the same frames to the same CRC).
 //!
 //! - [`views`]: the four standard views of a resident [`Model`] (a tri-grid or, with the `qsplat`
@@ -26,7 +26,7 @@
 //! assert_eq!(frame_crc(&fb), again);
 //! ```
 #![cfg_attr(not(test), no_std)]
-// Per-pixel work is integer only, as on the FPU-less device (DESIGN.md, Numbers).
+// Per-pixel work is integer only, as on the FPU-less device (docs/ARCHITECTURE.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
 #[cfg(feature = "scene")]

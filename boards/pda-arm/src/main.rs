@@ -10,7 +10,7 @@
 //! of the test pattern and prints `frame 0 crc 0x…`. Either way it then prints its memory use
 //! (`ram_bytes`, `stack_bytes`, `flash_bytes`, `psram_bytes`) over semihosting and exits QEMU with
 //! status 0. A panic or a HardFault prints what happened and exits with a failure status, so a QEMU
-//! run never hangs (STYLE.md 3).
+//! run never hangs (docs/ARCHITECTURE.md, Conventions 3).
 //!
 //! Each frame step calls a marker function (`pocketsplat_mark_*`), so that an instruction-counting
 //! QEMU plugin (`tests/qemu-plugin/icount.c`, driven by `arm-bench`) can attribute the cost of a frame

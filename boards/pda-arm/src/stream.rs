@@ -194,7 +194,7 @@ impl Leg {
 }
 
 /// The std view turned by `az_deg` degrees of azimuth.
-// Camera setup, once a frame: floats are allowed there (DESIGN.md, Numbers), and an integer step
+// Camera setup, once a frame: floats are allowed there (docs/ARCHITECTURE.md, Numbers), and an integer step
 // in degrees is exact in f64 on both machines.
 #[allow(clippy::float_arithmetic)]
 pub fn orbit_view(az_deg: u32) -> View {

@@ -1,6 +1,6 @@
 //! The standard views of a memory-resident model, rendered by one function that the firmware and
 //! the host tests both call, so that an ARM frame and a host frame can only differ by what the two
-//! machines compute, never by what the code asks them to (DESIGN.md: same frames, same CRC).
+//! machines compute, never by what the code asks them to (docs/ARCHITECTURE.md: same frames, same CRC).
 //!
 //! A [`Model`] is a tri-grid (`.tg`) or, with the `qsplat` feature, a QSplat file (`.qs`), told apart
 //! by its magic at run time ([`Model::open`]). A frame is what `pocketsplat-sim`'s `render_tg_with`
@@ -14,7 +14,7 @@
 //! each step.
 //!
 //! Shadows need a tri-grid and the `shadows` feature (which turns on `pocketsplat-core/shadows`);
-//! without it, [`SHADOW_MODES`] holds [`Shadows::Off`] only and no shadow code is linked (DESIGN.md:
+//! without it, [`SHADOW_MODES`] holds [`Shadows::Off`] only and no shadow code is linked (docs/ARCHITECTURE.md:
 //! leave out what a scene does not need). A QSplat model renders [`Shadows::Off`] only
 //! ([`Model::shadow_modes`]).
 

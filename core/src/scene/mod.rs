@@ -1,5 +1,5 @@
 //! Scenes: several point files placed in one world with their materials, a light, shadows and named
-//! views, packed into one file (`.pack`) and drawn into one framebuffer (DESIGN.md "Scene pack").
+//! views, packed into one file (`.pack`) and drawn into one framebuffer (docs/ARCHITECTURE.md "Formats").
 //!
 //! The byte layout is specified in `PACK.md` beside this file, included below. [`pack`] reads it
 //! (no_std; validate once, then no accessor can panic), `write` produces it (`bake` feature), and

@@ -703,7 +703,7 @@ fn slotted<'s, S: SplatSink>(scene: &Scene<'_>, i: usize, sink: &'s mut S) -> Sl
     }
 }
 
-/// RAM a scene needs on the device, bytes (DESIGN.md "Device budget"): what the firmware and
+/// RAM a scene needs on the device, bytes (docs/ARCHITECTURE.md "Device budget"): what the firmware and
 /// `pocketsplat render --stats-json` print.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -1,5 +1,5 @@
 //! Streaming: drawing a model while it is read in blocks from flash, an SD card, a file or a web
-//! server (Rusinkiewicz & Levoy, *Streaming QSplat*, §3; DESIGN.md "The way data flows").
+//! server (Rusinkiewicz & Levoy, *Streaming QSplat*, §3; docs/ARCHITECTURE.md "The way data flows").
 //!
 //! - [`ChunkSource`] is the one thing a medium must do: "read these bytes". Flash is a slice
 //!   ([`MemSource`], zero copy through [`ChunkSource::mapped`]); the simulator reads a file or HTTP

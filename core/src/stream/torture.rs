@@ -1,4 +1,4 @@
-//! Sources that mistreat another source, for torture tests (STYLE.md 6; embedded-sdmmc's
+//! Sources that mistreat another source, for torture tests (docs/ARCHITECTURE.md, Conventions 6; embedded-sdmmc's
 //! `tests/read_file.rs`): reads split into odd chunks and issued backwards, and reads that fail or
 //! arrive damaged at random, from a seed.
 

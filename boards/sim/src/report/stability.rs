@@ -1,5 +1,5 @@
 //! `pocketsplat report stability`: a named suite of extreme and stiff cases for the integer renderer,
-//! each judged against an f64 projection of the same cells (DESIGN.md "Numbers": overflow is a bug).
+//! each judged against an f64 projection of the same cells (docs/ARCHITECTURE.md "Numbers": overflow is a bug).
 //!
 //! A case passes only when it does not panic (overflow checks on: the dev profile has them), every
 //! splat that reaches the screen lies within [`MAX_ERROR_PX`] of the f64 projection of its cell's
