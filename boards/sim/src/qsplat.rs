@@ -71,11 +71,13 @@ pub fn render_qs_with(
     overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
 ) -> Result<FrameReport> {
     let cam = settings.camera(file.bounds());
-    render_qs_from(file, settings, &cam, table, out, overlay)
+    render_qs_from(file, settings, &cam, table, out, |fb, report| {
+        overlay(fb, &report.stats)
+    })
 }
 
 /// As [`render_qs_with`], from `cam` instead of the orbit camera of `settings.view` (the viewer
-/// pans the orbit centre).
+/// pans the orbit centre); the hook also sees the frame's time.
 ///
 /// # Errors
 /// When the frame cannot be set up or shadows are asked for.
@@ -85,7 +87,7 @@ pub fn render_qs_from(
     cam: &Camera,
     table: &mut ShadingTable<1>,
     out: &mut FrameBuffers,
-    overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
+    overlay: impl FnOnce(&mut Framebuffer<'_>, &FrameReport),
 ) -> Result<FrameReport> {
     if settings.shadows != ShadowMode::Off {
         bail!("shadows are implemented for .tg files only; render .qs files with --shadows off");
@@ -120,7 +122,10 @@ pub fn render_qs_from(
     } else {
         render_qs_colored(file, &frame, &mut sink)
     };
-    let time = t.elapsed();
-    overlay(&mut fb, &stats);
-    Ok(FrameReport { stats, time })
+    let report = FrameReport {
+        stats,
+        time: t.elapsed(),
+    };
+    overlay(&mut fb, &report);
+    Ok(report)
 }

@@ -160,24 +160,7 @@ impl Scene for QsScene<'_> {
             shadows: ShadowMode::Off,
             ..*settings
         };
-        let t = std::time::Instant::now();
-        render_qs_from(
-            &self.file,
-            &settings,
-            &cam,
-            &mut self.table,
-            out,
-            |fb, stats| {
-                let time = t.elapsed();
-                overlay(
-                    fb,
-                    &FrameReport {
-                        stats: *stats,
-                        time,
-                    },
-                );
-            },
-        )
+        render_qs_from(&self.file, &settings, &cam, &mut self.table, out, overlay)
     }
 }
 
