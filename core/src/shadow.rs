@@ -334,8 +334,8 @@ impl LightFrame {
         let travel = placement.to_model_dir(camera::normalize(camera::scale(light_dir, -1.0)));
         let (axis_u, axis_v) = across(travel);
         let axes = [axis_u, axis_v, travel];
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for corner in 0..8 {
@@ -408,8 +408,8 @@ impl LightFrame {
         if !light.iter().all(|c| c.is_finite()) {
             return Err(LightError::NotFinite);
         }
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let to_centre = camera::sub(centre, light);
         let distance = libm::sqrt(camera::dot(to_centre, to_centre));
@@ -1036,8 +1036,8 @@ impl LightFrame {
             ]
         });
         let dir = |k: usize| -> Vec3 { [rows[k][0], rows[k][1], rows[k][2]] };
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let root = core::array::from_fn(|k| to_i(camera::dot(dir(k), centre) + rows[k][3]));
         let rho = usize::from(header.rho);

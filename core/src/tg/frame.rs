@@ -359,8 +359,8 @@ impl TgFrame {
         let a = [model_row(rx), model_row(ry), model_row(rw)];
         let eval =
             |p: Vec3| -> Vec3 { core::array::from_fn(|k| camera::dot(row(&a[k]), p) + a[k][3]) };
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut bound = 0.0f64;
         for corner in 0..8 {
             let p =
@@ -675,8 +675,8 @@ impl DepthRange {
     /// The camera depths of the grid's root cube placed by `placement`: the extremes over its eight
     /// corners (camera depth is linear, so they bound the whole cube).
     pub fn of_root_cube(header: &Header, placement: &Placement, camera: &Camera) -> DepthRange {
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut r = DepthRange::EMPTY;
         for corner in 0..8 {
             let p: Vec3 =
