@@ -27,7 +27,7 @@ use pocketsplat_core::raster::{drawn_pixels, Kernel, MAX_SPLAT_PX};
 use pocketsplat_core::shade::{phong, to_rgb565, ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
-use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
+use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND, PRECISION_ERROR_PX};
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
 
@@ -69,7 +69,9 @@ impl Outcome {
         self.failures.push(why.into());
     }
     /// Turns a measured failure into a known one when it is exactly the documented behaviour, and
-    /// into a failure ("known failure changed") otherwise.
+    /// into a failure ("known failure changed") otherwise. (No case has a known failure since
+    /// issue 18; kept for the next one.)
+    #[allow(dead_code)]
     fn expect_known(&mut self, reproduced: bool, reason: &str) {
         if reproduced {
             self.failures.clear();
@@ -663,6 +665,9 @@ pub struct Measured {
     pub fb: FrameBuffers,
     /// What the splat-by-splat checks found.
     pub checks: Checks,
+    /// The frame's near plane, world units: the camera's, or the frame's precision plane when that
+    /// is farther (`TgFrame::near_depth`).
+    pub near_depth: f64,
 }
 
 /// What the splat-by-splat checks of one frame found.
@@ -1105,6 +1110,7 @@ fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Measured {
         stats,
         fb,
         checks: measured,
+        near_depth: frame.near_depth(),
     }
 }
 
@@ -1114,8 +1120,9 @@ fn check(shot: &Shot<'_>) -> Outcome {
 }
 
 /// Requires that something was drawn (a vacuous pass proves nothing) where, in f64, some leaf's
-/// footprint covers a pixel centre. A model smaller than that draws nothing: its splats, exact
-/// footprints, cover no pixel centre, as the surface itself covers none.
+/// footprint covers a pixel centre beyond the frame's near plane (the camera's, or the frame's
+/// precision plane, `TgFrame::near_depth`). A model smaller than that draws nothing: its splats,
+/// exact footprints, cover no pixel centre, as the surface itself covers none.
 fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let m = shoot(shot);
     let mut o = m.outcome();
@@ -1123,9 +1130,12 @@ fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let leaf = b.side.len() - 1;
     let half = 0.5 * FOOTPRINT * b.side[leaf] * shot.placement.scale;
     let cam = &shot.camera;
+    // A leaf straddling the plane may be drawn or not (its centre decides): only leaves wholly
+    // beyond it must be.
+    let near = cam.near.max(m.near_depth) + half * 3f64.sqrt();
     let over_a_centre = b.centres[leaf].iter().any(|&c| {
         let [x, y, z] = model_to_camera(cam, &shot.placement, c);
-        if z <= cam.near {
+        if z <= near {
             return false;
         }
         let p = cam.screen(x, y, z);
@@ -1143,6 +1153,13 @@ fn check_drawn(shot: &Shot<'_>) -> Outcome {
     if !over_a_centre {
         o.notes
             .push_str("; no leaf covers a pixel centre: nothing to draw");
+    }
+    if m.near_depth > cam.near {
+        let _ = write!(
+            o.notes,
+            "; the frame's precision plane clips at {:.1} × the camera's near plane",
+            m.near_depth / cam.near
+        );
     }
     o
 }
@@ -1655,40 +1672,80 @@ fn shapes(r: &mut Runner) {
                 check_drawn(&shot)
             });
         }
-        // Beyond the orbit camera (whose near plane is 10⁻³ radii): an eye 10 cluster radii from the
-        // cluster, near plane 10⁻⁸ radii.
-        for (name, dist, known) in [
+        // Beyond the orbit camera (whose near plane is 10⁻³ radii): an eye 100 and 10 cluster radii
+        // from the cluster, near plane 10⁻⁸ radii. One frame scale covers the root cube, so `W` has
+        // about 2²¹ steps over it and the cluster is some 100 or 10 steps from the eye, where the
+        // rounding of the tables could move it by pixels (0.2 and 0.8 px were measured before
+        // issue 18): the frame's precision plane (`TgFrame::near_depth`) must clip it, as a near
+        // plane would, rather than draw it misplaced.
+        for (name, dist) in [
             (
                 "cluster + outliers (1e6), eye 1e-4 radii from the cluster",
                 1e-4,
-                false,
             ),
             (
                 "cluster + outliers (1e6), eye 1e-5 radii from the cluster",
                 1e-5,
-                true,
             ),
         ] {
             r.case(name, || {
                 let mut shot = Shot::orbit(&b, View::new(20.0, 10.0, dist), 45.0).culling(false);
-                shot.camera.near = 1e-8 * world_sphere(b.bounds(), &shot.placement).radius;
+                let radius = world_sphere(b.bounds(), &shot.placement).radius;
+                shot.camera.near = 1e-8 * radius;
                 shot.opts.cutoff_px = 0.5;
-                let mut o = check_drawn(&shot);
-                if known {
-                    let only_projection = o.failures.iter().all(|f| {
-                        f.starts_with("projected error") || f.starts_with("first:")
-                    });
-                    o.expect_known(
-                        only_projection && o.worst > MAX_ERROR_PX && o.worst < 2.0,
-                        "the stiff case past the orbit camera's near plane (10⁻³ radii): one frame \
-                         scale covers the root cube, so W has about 2²¹ steps over it and a cell 10⁻⁵ \
-                         radii from the eye is only some ten steps away; the few steps of rounding \
-                         the displacement tables add move it by 0.5–2 px (graceful, no overflow)",
-                    );
+                let m = shoot(&shot);
+                let mut o = m.outcome();
+                if m.near_depth < 2.0 * dist * radius {
+                    o.fail(format!(
+                        "the frame's near plane is at {:.2e} radii, in front of the cluster",
+                        m.near_depth / radius
+                    ));
                 }
+                if m.stats.splats != 0 {
+                    o.fail(format!("{} splats drawn nearer than the precision plane", m.stats.splats));
+                }
+                let _ = write!(
+                    o.notes,
+                    "; the frame's precision plane at {:.2e} radii clips the cluster",
+                    m.near_depth / radius
+                );
                 o
             });
         }
+        // The precision plane's bound, checked where it is tightest: the eye just beyond it from
+        // the cluster, whose cell must be drawn within `PRECISION_ERROR_PX` (0.4 px).
+        r.case(
+            "cluster + outliers (1e6), eye 1.1 precision planes from the cluster",
+            || {
+                let view = |dist| View::new(20.0, 10.0, dist);
+                let mut shot = Shot::orbit(&b, view(1e-5), 45.0).culling(false);
+                let radius = world_sphere(b.bounds(), &shot.placement).radius;
+                // The plane's depth hardly depends on where the eye is (the frame's scale is set by
+                // the whole root cube), so one look at it places the eye.
+                let probe = TgFrame::new(&b.tg().header(), &shot.placement, &shot.camera, &shot.opts)
+                    .expect("frame set-up");
+                let dist = 1.1 * probe.near_depth() / radius;
+                shot = Shot::orbit(&b, view(dist), 45.0).culling(false);
+                shot.camera.near = 1e-8 * radius;
+                shot.opts.cutoff_px = 0.5;
+                let mut o = check_drawn(&shot);
+                let m = shoot(&shot);
+                if m.stats.splats == 0 || m.near_depth > dist * radius {
+                    o.fail(format!(
+                        "the cluster at {dist:.2e} radii is not drawn (precision plane at {:.2e})",
+                        m.near_depth / radius
+                    ));
+                }
+                if o.worst > PRECISION_ERROR_PX {
+                    o.fail(format!(
+                        "error {:.3} px beyond the precision plane (bound {PRECISION_ERROR_PX} px)",
+                        o.worst
+                    ));
+                }
+                let _ = write!(o.notes, "; eye {dist:.2e} radii from the cluster");
+                o
+            },
+        );
         r.case(
             "cluster + outliers (1e6): the cluster's cell is drawn",
             || {
