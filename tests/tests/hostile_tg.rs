@@ -384,7 +384,8 @@ fn check_field_error(
     let ok = match field {
         // Unknown bits, or normal cones on a grid whose masks have no spare bits for them (ρ ≠ 3).
         Field::Flags
-            if flags & !(FLAG_COLOR | FLAG_PRECISE | if h.rho == 3 { FLAG_CONES } else { 0 }) != 0 =>
+            if flags & !(FLAG_COLOR | FLAG_PRECISE | if h.rho == 3 { FLAG_CONES } else { 0 })
+                != 0 =>
         {
             got == TgError::UnsupportedFlags(flags)
         }

@@ -278,8 +278,11 @@ fn precise_cube(
         return None;
     }
     let centre: [f64; 3] = core::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
-    let slack = (side - extent)
-        .max((0..3).map(|a| (origin[a] + 0.5 * side - centre[a]).abs()).fold(0.0, f64::max));
+    let slack = (side - extent).max(
+        (0..3)
+            .map(|a| (origin[a] + 0.5 * side - centre[a]).abs())
+            .fold(0.0, f64::max),
+    );
     if slack <= MAX_F32_SLACK * side {
         return None;
     }
@@ -531,16 +534,27 @@ mod tests {
         let p = far.precise.expect("a precise cube at 10⁷");
         // The same cube as the unit plane's, moved, to within the f64 rounding at 10⁷ (its f32
         // cube is 0.5 off and 2 sides wide).
-        assert!((p.side - near.side).abs() < 1e-6, "{} vs {}", p.side, near.side);
+        assert!(
+            (p.side - near.side).abs() < 1e-6,
+            "{} vs {}",
+            p.side,
+            near.side
+        );
         for a in 0..3 {
-            assert!((p.origin[a] - t[a] - near.origin[a]).abs() < 1e-6, "axis {a}");
+            assert!(
+                (p.origin[a] - t[a] - near.origin[a]).abs() < 1e-6,
+                "axis {a}"
+            );
         }
         // The same cells, and the file reads them back.
         assert_eq!(far.levels, near.levels);
         let mut bytes = write_tg(&far, 9).unwrap();
         let h = *TriGrid::open(&bytes, Verify::Full).unwrap().header();
         assert!(h.has_precise());
-        assert_eq!((h.origin64, h.side64, h.bounds64), (p.origin, p.side, p.bounds));
+        assert_eq!(
+            (h.origin64, h.side64, h.bounds64),
+            (p.origin, p.side, p.bounds)
+        );
         // Its f32 fields still hold a cube around the mesh, for readers without the flag.
         for a in 0..3 {
             let lo = f64::from(h.origin[a]);

@@ -514,7 +514,10 @@ fn read_precise(block: &[u8], at: usize, header: &mut Header) -> Result<(), TgEr
     let bad = |k: usize| TgError::BadPrecise {
         offset: at.saturating_add(8 * k).min(usize::from(u16::MAX)) as u16,
     };
-    if at.checked_add(PRECISE_BYTES).is_none_or(|e| e > block.len() - 4) {
+    if at
+        .checked_add(PRECISE_BYTES)
+        .is_none_or(|e| e > block.len() - 4)
+    {
         return Err(bad(0));
     }
     let mut v = [0.0f64; 10];
@@ -538,8 +541,8 @@ fn read_precise(block: &[u8], at: usize, header: &mut Header) -> Result<(), TgEr
         if bounds[0][a] > bounds[1][a] {
             return Err(bad(4 + a));
         }
-        for k in 0..2 {
-            if !(lo..=hi).contains(&bounds[k][a]) {
+        for (k, b) in bounds.iter().enumerate() {
+            if !(lo..=hi).contains(&b[a]) {
                 return Err(bad(4 + 3 * k + a));
             }
         }

@@ -156,9 +156,10 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
     let h = &mut file[..bs];
     h[0..4].copy_from_slice(&MAGIC);
     h[4..6].copy_from_slice(&VERSION.to_le_bytes());
+    let precise = grid.precise.map_or(0, |_| FLAG_PRECISE);
     let flags = if color { FLAG_COLOR } else { 0 }
         | if cones.is_empty() { 0 } else { FLAG_CONES }
-        | if grid.precise.is_some() { FLAG_PRECISE } else { 0 };
+        | precise;
     h[6..8].copy_from_slice(&flags.to_le_bytes());
     h[8] = grid.rho;
     h[9] = depth as u8;
@@ -189,7 +190,11 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
 
     // The precise root cube and bounds, after the CRC list (FORMAT.md, flag bit 2).
     if let Some(p) = &grid.precise {
-        let values = p.origin.iter().chain([&p.side]).chain(p.bounds.iter().flatten());
+        let values = p
+            .origin
+            .iter()
+            .chain([&p.side])
+            .chain(p.bounds.iter().flatten());
         for (k, v) in values.enumerate() {
             let at = list_at + 4 * t + 8 * k;
             h[at..at + 8].copy_from_slice(&v.to_le_bytes());
