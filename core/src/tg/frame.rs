@@ -641,16 +641,23 @@ pub const PRECISION_ERROR_PX: f64 = 0.4;
 /// component (the `+ 1` the shift's floor). A pixel coordinate `p = X / W` then errs by at most
 /// `(E + |p|·E) / (W − E)`, so `W ≥ (1 + 400)·E / PRECISION_ERROR_PX + E` bounds it by
 /// [`PRECISION_ERROR_PX`] for every splat centred within 80 px of the screen (`|p| ≤ 400`); a
-/// larger splat centred farther off the screen errs by at most that times `|p| / 400`. The reciprocal's 2⁻¹⁷ adds at most 0.003 px and the Q8 rounding
-/// 0.002 px; the linearised loops start farther out (`TgFrame::linear_w`) with their own bound.
+/// larger splat centred farther off the screen errs by at most that times `|p| / 400`. A splat's
+/// size errs by at most `E / (W − E)` of itself (0.1 % there). Not from the frame's scale, and
+/// the same at any depth: the reciprocal's 2⁻¹⁷ (0.003 px), the Q8 rounding (0.002 px) and the
+/// centroid's Q6 weights (1/128 of the cell's projected side); the linearised loops start farther
+/// out (`TgFrame::linear_w` ≥ 2¹⁸) with their own bound.
 ///
-/// For ρ = 3 and depth 9 this is 9 030 steps, about 0.4 % of the root cube's depth range from the
-/// eye: the orbit camera's views (the eye at least ~0.3 radii from every surface in the standard
-/// views) never reach it, and an eye nearer a surface than that sees it clipped, as by a near plane,
-/// instead of misplaced. It costs nothing per node: the traversal already tests `W ≥ near_w`.
+/// For ρ = 3 and depth 9 this is 9 032 steps, a few thousandths of the `W` range (the eye at the
+/// centre of a bounding sphere of radius 1: 4.8·10⁻³ radii; the orbit camera's own near plane is
+/// 10⁻³ radii). The standard views of every model never come that near a surface, so they draw
+/// the same pixels; an eye nearer a surface than that sees it clipped, as by a near plane, instead
+/// of misplaced by up to pixels (0.8 px at ten steps, the stability suite's stiffest case before
+/// issue 18). It costs nothing per node: the traversal already tests `W ≥ near_w`.
 pub fn precision_near_w(header: &Header) -> i32 {
     let steps = 0.5 * (f64::from(header.depth) + 1.0) + 1.5 * (f64::from(header.rho) - 1.0) + 1.0;
-    to_i32(libm::ceil((1.0 + 1.25 * HEIGHT as f64) * steps / PRECISION_ERROR_PX + steps))
+    to_i32(libm::ceil(
+        (1.0 + 1.25 * HEIGHT as f64) * steps / PRECISION_ERROR_PX + steps,
+    ))
 }
 
 /// Sets the bit of every normal code with `n · fq > threshold` in `back` and of every one with

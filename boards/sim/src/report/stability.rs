@@ -1702,7 +1702,10 @@ fn shapes(r: &mut Runner) {
                     ));
                 }
                 if m.stats.splats != 0 {
-                    o.fail(format!("{} splats drawn nearer than the precision plane", m.stats.splats));
+                    o.fail(format!(
+                        "{} splats drawn nearer than the precision plane",
+                        m.stats.splats
+                    ));
                 }
                 let _ = write!(
                     o.notes,
@@ -1722,8 +1725,9 @@ fn shapes(r: &mut Runner) {
                 let radius = world_sphere(b.bounds(), &shot.placement).radius;
                 // The plane's depth hardly depends on where the eye is (the frame's scale is set by
                 // the whole root cube), so one look at it places the eye.
-                let probe = TgFrame::new(&b.tg().header(), &shot.placement, &shot.camera, &shot.opts)
-                    .expect("frame set-up");
+                let probe =
+                    TgFrame::new(b.tg().header(), &shot.placement, &shot.camera, &shot.opts)
+                        .expect("frame set-up");
                 let dist = 1.1 * probe.near_depth() / radius;
                 shot = Shot::orbit(&b, view(dist), 45.0).culling(false);
                 shot.camera.near = 1e-8 * radius;
