@@ -267,7 +267,8 @@ pub fn bake_grid(
 
 /// The `f64` root cube of a mesh with box `(lo, hi)` when the `f32` cube `(origin, side)` has more
 /// slack than [`MAX_F32_SLACK`]: the box's largest extent, centred on the box, grown by an `f64`
-/// step at a time until it contains the box.
+/// step at a time until it contains the box; none when that cube's corner is more than
+/// `MAX_CORNER_SIDES` sides from 0 (FORMAT.md), which the reader refuses.
 fn precise_cube(
     (lo, hi): ([f64; 3], [f64; 3]),
     origin: [f64; 3],
@@ -295,6 +296,14 @@ fn precise_cube(
     }
     while (0..3).any(|a| origin[a] + side < hi[a]) {
         side = side.next_up();
+    }
+    // A cube the reader takes: its corner at most 2³² sides from 0 (a mesh tinier than that
+    // against its distance from the origin keeps the f32 cube, grown to satisfy the same rule).
+    if origin
+        .iter()
+        .any(|o| o.abs() > crate::tg::read::MAX_CORNER_SIDES * side)
+    {
+        return None;
     }
     Some(PreciseCube {
         origin,
