@@ -77,8 +77,12 @@ pub struct Sphere {
 impl Sphere {
     /// The sphere around a bounding box: its centre and half its diagonal.
     pub fn from_bounds(bounds: [[f32; 3]; 2]) -> Self {
-        let lo = bounds[0].map(f64::from);
-        let hi = bounds[1].map(f64::from);
+        Self::from_bounds_f64(bounds.map(|c| c.map(f64::from)))
+    }
+
+    /// [`Sphere::from_bounds`] of an `f64` box (a `.tg` header's `bounds64`).
+    pub fn from_bounds_f64(bounds: [[f64; 3]; 2]) -> Self {
+        let [lo, hi] = bounds;
         let center = [
             0.5 * (lo[0] + hi[0]),
             0.5 * (lo[1] + hi[1]),

@@ -37,8 +37,10 @@
 //! multi-level rendering's: a coarse sample (a big cell drawn because it is small on screen) has
 //! neighbours with footprints as big as its own, and under grazing light the surface's depth changes
 //! by the slope across the whole cell, so a one-texel reach leaves it full of acne. The tangent comes
-//! from a 65-entry table indexed by `n·l` from the Q14 normal table, clamped at 8, so grazing light
-//! gets the largest bias; for a point light the texel grows with `W`, so its share of the reach is
+//! from a 65-entry table indexed by `n·l` from the Q14 normal table: the steepest slope of the
+//! table's 1/64 bin of `n·l`, so grazing light gets the largest bias, the true slope down to 0.9°
+//! above the surface (tangent 64) and 128 below that, where the shadow changes less than one RGB565
+//! step (a clamp at 8 left acne below 7.1°); for a point light the texel grows with `W`, so its share of the reach is
 //! one more multiply. A sample facing away from the light (`n·l ≤ 0`) is in shadow without a test,
 //! as in the reference renderer. One-pass shadows test against what the neighbours *drew* (their
 //! centre depth over their whole footprint), and a neighbour may be one level coarser than the
@@ -212,7 +214,7 @@ pub struct LightFrame {
     /// Direction to the light in the model frame, Q14 (a point light: from the bounding-sphere
     /// centre).
     to_light_q14: [i32; 3],
-    /// `tan θ` (Q8) by `n·l = cos θ` in 1/64 steps, `cos θ` floored at 1/8 so `tan θ ≤ 8`.
+    /// `tan θ` (Q8) by `n·l = cos θ` in 1/64 steps, `cos θ` floored at 1/128 so `tan θ ≤ 128`.
     tan_q8: [i32; 65],
     /// Lateral reach of the slope bias per level: directional, in Q8 depth units (the depth a
     /// slope of 1 gains over it); point, the cell's half-extent across the light in `W` units (the
@@ -332,8 +334,8 @@ impl LightFrame {
         let travel = placement.to_model_dir(camera::normalize(camera::scale(light_dir, -1.0)));
         let (axis_u, axis_v) = across(travel);
         let axes = [axis_u, axis_v, travel];
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for corner in 0..8 {
@@ -406,8 +408,8 @@ impl LightFrame {
         if !light.iter().all(|c| c.is_finite()) {
             return Err(LightError::NotFinite);
         }
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let to_centre = camera::sub(centre, light);
         let distance = libm::sqrt(camera::dot(to_centre, to_centre));
@@ -666,15 +668,21 @@ fn directional_reach(
     reach
 }
 
-/// `tan θ` in Q8 for `cos θ = i / 64`, the cosine floored at 1/8 (so the tangent is at most 8):
+/// `tan θ` in Q8 for `cos θ = i / 64`, the lower end of the bin `n·l ∈ [i/64, (i+1)/64)` the
+/// sample's test indexes, so the bin's largest tangent (its true slope or steeper). Only bin 0
+/// (`n·l < 1/64`, light within 0.9° of the surface) is floored, at `cos θ = 1/128` (tangent 128):
+/// there the diffuse term the shadow could remove is below 1/64 of the light, under one RGB565
+/// step. (Until issue 18 the cosine was floored at 1/8, tangent 8, so light below 7.1° above a
+/// surface got too little bias and self-shadowed; bins 8..=64 are unchanged, so every sample lit
+/// from 7.2° or more keeps its bias bit for bit.)
 /// [`tan_table`]'s values, written out because every light frame (each object of a scene, each
 /// frame) needs them and 65 soft-float square roots and divisions cost ~50 k instructions on a
 /// Cortex-M3 each time. A test checks them against the formula.
 const TAN_Q8: [i32; 65] = [
-    2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 2032, 1802, 1618, 1467, 1341, 1234, 1142, 1062,
-    991, 929, 873, 823, 778, 737, 699, 665, 633, 603, 576, 550, 526, 504, 482, 462, 443, 425, 408,
-    392, 376, 361, 347, 333, 320, 307, 294, 282, 270, 259, 248, 237, 226, 215, 205, 194, 184, 173,
-    163, 152, 142, 131, 119, 108, 95, 81, 66, 46, 0,
+    32767, 16382, 8188, 5455, 4088, 3267, 2719, 2327, 2032, 1802, 1618, 1467, 1341, 1234, 1142,
+    1062, 991, 929, 873, 823, 778, 737, 699, 665, 633, 603, 576, 550, 526, 504, 482, 462, 443, 425,
+    408, 392, 376, 361, 347, 333, 320, 307, 294, 282, 270, 259, 248, 237, 226, 215, 205, 194, 184,
+    173, 163, 152, 142, 131, 119, 108, 95, 81, 66, 46, 0,
 ];
 
 /// [`TAN_Q8`] from its formula.
@@ -682,7 +690,7 @@ const TAN_Q8: [i32; 65] = [
 fn tan_table() -> [i32; 65] {
     let mut t = [0i32; 65];
     for (i, b) in t.iter_mut().enumerate() {
-        let c = (i as f64 / 64.0).max(1.0 / 8.0);
+        let c = (i as f64 / 64.0).max(1.0 / 128.0);
         *b = to_i(libm::sqrt(1.0 - c * c) / c * 256.0);
     }
     t
@@ -1028,8 +1036,8 @@ impl LightFrame {
             ]
         });
         let dir = |k: usize| -> Vec3 { [rows[k][0], rows[k][1], rows[k][2]] };
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let centre: Vec3 = origin.map(|o| o + 0.5 * side);
         let root = core::array::from_fn(|k| to_i(camera::dot(dir(k), centre) + rows[k][3]));
         let rho = usize::from(header.rho);
@@ -1148,6 +1156,9 @@ mod tests {
             blocks: 1,
             crc_table_blocks: 1,
             bounds: [[-1.0; 3], [1.0; 3]],
+            origin64: [-1.0; 3],
+            side64: 2.0,
+            bounds64: [[-1.0; 3], [1.0; 3]],
         }
     }
 

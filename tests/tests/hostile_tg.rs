@@ -16,7 +16,7 @@ use pocketsplat_core::splat::NullSink;
 use pocketsplat_core::tg::write::seal;
 use pocketsplat_core::tg::{
     render_tg, RenderOptions, TgError, TgFrame, TriGrid, Verify, CONE_SHIFT, DIRECTORY_ENTRY,
-    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, MAX_DEPTH,
+    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAX_DEPTH,
 };
 use pocketsplat_sim::cmd::bake::bake_mesh;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
@@ -383,8 +383,16 @@ fn check_field_error(
     let flags = u16::from_le_bytes([b[6], b[7]]);
     let ok = match field {
         // Unknown bits, or normal cones on a grid whose masks have no spare bits for them (ρ ≠ 3).
-        Field::Flags if flags & !(FLAG_COLOR | if h.rho == 3 { FLAG_CONES } else { 0 }) != 0 => {
+        Field::Flags
+            if flags & !(FLAG_COLOR | FLAG_PRECISE | if h.rho == 3 { FLAG_CONES } else { 0 })
+                != 0 =>
+        {
             got == TgError::UnsupportedFlags(flags)
+        }
+        // The precise flag on a file without the extension: the zeros after the CRC list are no
+        // cube (side 0).
+        Field::Flags if (flags ^ h.flags) & FLAG_PRECISE != 0 => {
+            matches!(got, TgError::BadPrecise { .. })
         }
         // The cone flag cleared: the cone classes in the masks' spare bits are now bad mask bits.
         Field::Flags if (flags ^ h.flags) & FLAG_CONES != 0 => {

@@ -13,8 +13,8 @@ use pocketsplat_tests::model;
 fn cell_centres(tg: &TriGrid<'_>) -> Vec<Vec<[f64; 3]>> {
     let h = tg.header();
     let rho = usize::from(h.rho);
-    let side = f64::from(h.side);
-    let mut levels = vec![vec![h.origin.map(|o| f64::from(o) + 0.5 * side)]];
+    let side = h.side64;
+    let mut levels = vec![vec![h.origin64.map(|o| o + 0.5 * side)]];
     let mut cell = side;
     for l in 0..h.depth {
         let parent = cell;

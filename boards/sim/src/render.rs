@@ -123,10 +123,29 @@ impl Default for Settings {
     }
 }
 
+/// A model's bounding box, `f32` (QSplat files, a `.tg` header's `bounds`) or `f64` (a `.tg`
+/// header's `bounds64`, precise for a mesh far from its origin).
+pub trait ModelBounds {
+    /// The bounding sphere of the box.
+    fn sphere(self) -> Sphere;
+}
+
+impl ModelBounds for [[f32; 3]; 2] {
+    fn sphere(self) -> Sphere {
+        Sphere::from_bounds(self)
+    }
+}
+
+impl ModelBounds for [[f64; 3]; 2] {
+    fn sphere(self) -> Sphere {
+        Sphere::from_bounds_f64(self)
+    }
+}
+
 impl Settings {
     /// The camera for a model with this bounding box.
-    pub fn camera(&self, bounds: [[f32; 3]; 2]) -> Camera {
-        Camera::orbit(Sphere::from_bounds(bounds), self.view, self.fov_deg)
+    pub fn camera(&self, bounds: impl ModelBounds) -> Camera {
+        Camera::orbit(bounds.sphere(), self.view, self.fov_deg)
     }
     /// Unit direction to the light (for a point light, from the bounding-sphere centre).
     pub fn light_dir(&self) -> [f64; 3] {
@@ -136,8 +155,8 @@ impl Settings {
         }
     }
     /// The point light's position in model units, for a model with this bounding box.
-    pub fn light_position(&self, bounds: [[f32; 3]; 2]) -> Option<[f64; 3]> {
-        let s = Sphere::from_bounds(bounds);
+    pub fn light_position(&self, bounds: impl ModelBounds) -> Option<[f64; 3]> {
+        let s = bounds.sphere();
         self.light_pos
             .map(|p| camera::add(s.center, camera::scale(p, s.radius)))
     }
@@ -150,7 +169,7 @@ impl Settings {
 /// cube.
 pub fn light_frame(header: &Header, settings: &Settings) -> anyhow::Result<LightFrame> {
     let n = settings.shadow_map_size;
-    match settings.light_position(header.bounds) {
+    match settings.light_position(header.bounds64) {
         None => Ok(LightFrame::new(
             header,
             &Placement::IDENTITY,
@@ -222,7 +241,7 @@ pub fn render_tg_with(
     out: &mut FrameBuffers,
     overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
 ) -> anyhow::Result<FrameReport> {
-    let cam = settings.camera(grid.header().bounds);
+    let cam = settings.camera(grid.header().bounds64);
     render_tg_from(grid, settings, &cam, table, out, |fb, report| {
         overlay(fb, &report.stats)
     })
@@ -344,7 +363,7 @@ pub fn render_tg_classified(
     settings: &Settings,
     out: &mut FrameBuffers,
 ) -> anyhow::Result<Classified> {
-    let cam = settings.camera(grid.header().bounds);
+    let cam = settings.camera(grid.header().bounds64);
     let opts = RenderOptions {
         cutoff_px: settings.cutoff_px,
         kernel: settings.kernel,

@@ -49,6 +49,11 @@ pub struct BakedGrid {
     pub side: f64,
     /// Bounding box of the mesh (min, max), rounded outwards to f32.
     pub bounds: [[f32; 3]; 2],
+    /// The root cube and bounding box in `f64`, when the `f32` cube above is too coarse for the
+    /// mesh (far from its origin: at 10⁷ the `f32` spacing is 1): the grid is then built on this
+    /// cube, the file stores it too (FORMAT.md, flag bit 2) and `origin`, `side` and `bounds` are
+    /// an `f32` cube and box that contain it, for readers that do not know the flag.
+    pub precise: Option<PreciseCube>,
     /// Levels 0..=depth.
     pub levels: Vec<BakedLevel>,
     /// Store normal cones in the file (ρ = 3 only; FORMAT.md), so that the traversal culls
@@ -56,7 +61,32 @@ pub struct BakedGrid {
     pub cones: bool,
 }
 
+/// A root cube and bounding box in `f64` ([`BakedGrid::precise`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreciseCube {
+    /// Minimum corner.
+    pub origin: [f64; 3],
+    /// Side.
+    pub side: f64,
+    /// Bounding box of the mesh (min, max).
+    pub bounds: [[f64; 3]; 2],
+}
+
+/// Largest slack, as a fraction of the side, that the `f32` root cube may add around the mesh's
+/// box (beyond its largest extent, or off its centre) before the grid is built on the `f64` cube
+/// instead: 2⁻¹⁶, far above the `f32` rounding of a mesh near its origin (~2⁻²³), so that such
+/// bakes (every Stanford scan, every scene) keep their `f32` cube and their bytes.
+const MAX_F32_SLACK: f64 = 1.0 / 65536.0;
+
 impl BakedGrid {
+    /// The root cube the grid is built on: the precise one when there is one.
+    pub fn root_cube(&self) -> ([f64; 3], f64) {
+        match &self.precise {
+            Some(p) => (p.origin, p.side),
+            None => (self.origin, self.side),
+        }
+    }
+
     /// Number of subdivisions.
     pub fn depth(&self) -> u8 {
         (self.levels.len() - 1) as u8
@@ -205,6 +235,8 @@ pub fn bake_grid(
     while (0..3).any(|a| origin[a] + side < hi[a]) {
         side = f64::from(next_up_f32(side as f32));
     }
+    let precise = precise_cube(mesh.bounds(), origin, side);
+    let (root_min, root_side) = precise.map_or((origin, side), |p| (p.origin, p.side));
 
     let total = u64::from(opts.rho).pow(3 * u32::from(PARALLEL_LEVELS.min(opts.depth)));
     let done = std::sync::atomic::AtomicU64::new(0);
@@ -217,8 +249,8 @@ pub fn bake_grid(
     };
     let root = Cell {
         level: 0,
-        min: origin,
-        side,
+        min: root_min,
+        side: root_side,
     };
     let levels = ctx.build(root, &prep.tris);
     Ok(BakedGrid {
@@ -227,8 +259,56 @@ pub fn bake_grid(
         bounds,
         origin,
         side,
+        precise,
         levels,
         cones: opts.rho == 3,
+    })
+}
+
+/// The `f64` root cube of a mesh with box `(lo, hi)` when the `f32` cube `(origin, side)` has more
+/// slack than [`MAX_F32_SLACK`]: the box's largest extent, centred on the box, grown by an `f64`
+/// step at a time until it contains the box; none when that cube's corner is more than
+/// `MAX_CORNER_SIDES` sides from 0 (FORMAT.md), which the reader refuses.
+fn precise_cube(
+    (lo, hi): ([f64; 3], [f64; 3]),
+    origin: [f64; 3],
+    side: f64,
+) -> Option<PreciseCube> {
+    let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    if extent.is_nan() || extent <= 0.0 {
+        return None;
+    }
+    let centre: [f64; 3] = core::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
+    let slack = (side - extent).max(
+        (0..3)
+            .map(|a| (origin[a] + 0.5 * side - centre[a]).abs())
+            .fold(0.0, f64::max),
+    );
+    if slack <= MAX_F32_SLACK * side {
+        return None;
+    }
+    let mut side = extent;
+    let mut origin: [f64; 3] = core::array::from_fn(|a| centre[a] - 0.5 * side);
+    for a in 0..3 {
+        while origin[a] > lo[a] {
+            origin[a] = origin[a].next_down();
+        }
+    }
+    while (0..3).any(|a| origin[a] + side < hi[a]) {
+        side = side.next_up();
+    }
+    // A cube the reader takes: its corner at most 2³² sides from 0 (a mesh tinier than that
+    // against its distance from the origin keeps the f32 cube, grown to satisfy the same rule).
+    if origin
+        .iter()
+        .any(|o| o.abs() > crate::tg::read::MAX_CORNER_SIDES * side)
+    {
+        return None;
+    }
+    Some(PreciseCube {
+        origin,
+        side,
+        bounds: [lo, hi],
     })
 }
 
@@ -384,7 +464,7 @@ fn next_down_f32(x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tg::{write::write_tg, TriGrid, Verify};
+    use crate::tg::{write::write_tg, TgError, TriGrid, Verify};
 
     /// A unit square in the plane y = 0.5 of the cube [0,1]³ (two triangles): every level of a
     /// tri-grid has α = 9 exactly (Duguet §4.3, Fig. 2).
@@ -440,6 +520,71 @@ mod tests {
                 TriGrid::open(&bytes, Verify::Full).unwrap();
             }
         }
+    }
+
+    #[test]
+    fn a_mesh_far_from_its_origin_keeps_its_grid_through_the_f64_extension() {
+        use crate::tg::{write::seal, FLAG_PRECISE};
+        let near = bake_grid(&plane(), BakeOptions { rho: 3, depth: 3 }, None).unwrap();
+        let bytes = write_tg(&near, 9).unwrap();
+        let h = *TriGrid::open(&bytes, Verify::Full).unwrap().header();
+        // Near the origin: the f32 cube, no extension, the f64 fields are the f32 ones.
+        assert!(near.precise.is_none() && !h.has_precise());
+        assert_eq!(h.origin64, h.origin.map(f64::from));
+        assert_eq!(h.side64, f64::from(h.side));
+        assert_eq!(h.bounds64, h.bounds.map(|c| c.map(f64::from)));
+
+        let t = [1e7, -3e7, 2.5e6];
+        let mut m = plane();
+        for p in &mut m.positions {
+            *p = core::array::from_fn(|a| p[a] + t[a]);
+        }
+        let far = bake_grid(&m, BakeOptions { rho: 3, depth: 3 }, None).unwrap();
+        let p = far.precise.expect("a precise cube at 10⁷");
+        // The same cube as the unit plane's, moved, to within the f64 rounding at 10⁷ (its f32
+        // cube is 0.5 off and 2 sides wide).
+        assert!(
+            (p.side - near.side).abs() < 1e-6,
+            "{} vs {}",
+            p.side,
+            near.side
+        );
+        for a in 0..3 {
+            assert!(
+                (p.origin[a] - t[a] - near.origin[a]).abs() < 1e-6,
+                "axis {a}"
+            );
+        }
+        // The same cells, and the file reads them back.
+        assert_eq!(far.levels, near.levels);
+        let mut bytes = write_tg(&far, 9).unwrap();
+        let h = *TriGrid::open(&bytes, Verify::Full).unwrap().header();
+        assert!(h.has_precise());
+        assert_eq!(
+            (h.origin64, h.side64, h.bounds64),
+            (p.origin, p.side, p.bounds)
+        );
+        // Its f32 fields still hold a cube around the mesh, for readers without the flag.
+        for a in 0..3 {
+            let lo = f64::from(h.origin[a]);
+            assert!(lo <= p.bounds[0][a] && p.bounds[1][a] <= lo + f64::from(h.side));
+        }
+        // A bad f64 is caught: a side of 0 (offset: the CRC list's end + 24).
+        let list_end = 72 + 24 * 4 + 4 * h.crc_table_blocks as usize;
+        bytes[list_end + 24..list_end + 32].copy_from_slice(&0f64.to_le_bytes());
+        seal(&mut bytes);
+        assert_eq!(
+            TriGrid::open(&bytes, Verify::Full).unwrap_err(),
+            TgError::BadPrecise {
+                offset: (list_end + 24) as u16
+            }
+        );
+        // Without the flag the extension is unread padding, and the f32 cube is used.
+        let flags = u16::from_le_bytes([bytes[6], bytes[7]]) & !FLAG_PRECISE;
+        bytes[6..8].copy_from_slice(&flags.to_le_bytes());
+        seal(&mut bytes);
+        let h = *TriGrid::open(&bytes, Verify::Full).unwrap().header();
+        assert_eq!(h.side64, f64::from(h.side));
     }
 
     #[test]

@@ -11,5 +11,5 @@ mod geom;
 mod grid;
 mod mesh;
 
-pub use grid::{bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel};
+pub use grid::{bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel, PreciseCube};
 pub use mesh::{MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};

@@ -175,7 +175,11 @@ pub struct TgFrame {
     /// (`a` the cell's Q14 normal).
     pub(crate) cone_k: [i32; 8],
     pub(crate) cone_r: [[i64; MAX_LEVELS]; 8],
+    /// Cells whose `W` is below this are not drawn: the camera's near plane or, when it is
+    /// farther, the frame's precision plane ([`precision_near_w`]).
     pub(crate) near_w: i32,
+    /// The camera's near plane alone, in `W` (setup only: the depth map's nearest depth).
+    camera_near_w: i32,
     /// Depth = `(W − depth_w0) · depth_scale >> 32`.
     pub(crate) depth_w0: i32,
     pub(crate) depth_scale: u64,
@@ -303,6 +307,7 @@ impl TgFrame {
         cone_k: [0; 8],
         cone_r: [[0; MAX_LEVELS]; 8],
         near_w: 1,
+        camera_near_w: 1,
         depth_w0: 0,
         depth_scale: 0,
         w_per_unit: 0.0,
@@ -359,8 +364,8 @@ impl TgFrame {
         let a = [model_row(rx), model_row(ry), model_row(rw)];
         let eval =
             |p: Vec3| -> Vec3 { core::array::from_fn(|k| camera::dot(row(&a[k]), p) + a[k][3]) };
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut bound = 0.0f64;
         for corner in 0..8 {
             let p =
@@ -382,7 +387,13 @@ impl TgFrame {
         let mut ext = [Extents::default(); MAX_LEVELS];
         let mut lod_w = [i32::MAX; MAX_LEVELS];
         let mut size_k = [(0u32, 0u32); MAX_LEVELS];
-        let near_w = to_i32((camera.near * scale).max(1.0));
+        // The camera's near plane, and the frame's own: nearer than `precision_near_w` the
+        // rounding of the tables could move a splat by more than `PRECISION_ERROR_PX`, so cells
+        // there are clipped as in front of the near plane (`precision_near_w`'s docs). The depth
+        // map and the LOD keep the camera's plane, so that a frame whose cells all lie beyond both
+        // draws the same pixels as without the precision plane.
+        let camera_near_w = to_i32((camera.near * scale).max(1.0));
+        let near_w = camera_near_w.max(precision_near_w(header));
         let world_side = side * placement.scale;
         let (rxm, rym, rwm) = (row(&a[0]), row(&a[1]), row(&a[2]));
         let rr = camera::sub(camera::scale(rwm, WIDTH as f64), rxm);
@@ -412,7 +423,7 @@ impl TgFrame {
             // (module docs).
             let k = cell * (world_side / side) * f * scale;
             let stop_side_px = (cutoff / libm::sqrt(3.0)).max(cutoff.min(1.0));
-            lod_w[level] = to_i32((k / stop_side_px).max(f64::from(near_w)));
+            lod_w[level] = to_i32((k / stop_side_px).max(f64::from(camera_near_w)));
             let footprint = match opts.kernel {
                 Kernel::Square => FOOTPRINT,
                 Kernel::Round => FOOTPRINT_ROUND,
@@ -454,7 +465,7 @@ impl TgFrame {
                 let w = (1.1 * reach * k_side / libm::sqrt(LINEAR_ERROR_PX * f))
                     .max(k_side / 8.0)
                     .max(LINEAR_MIN_W);
-                linear_w[l] = to_i32(w.max(f64::from(near_w)));
+                linear_w[l] = to_i32(w.max(f64::from(camera_near_w)));
             }
         }
         let mut slot_steps = [[0i8; 3]; SLOT_TABLE];
@@ -517,7 +528,7 @@ impl TgFrame {
         let (depth_w0, depth_scale) = depth_map(
             root_f[2] - f64::from(ext[0].w),
             root_f[2] + f64::from(ext[0].w),
-            near_w,
+            camera_near_w,
         );
 
         // Backfacing for every ray within the frustum: n·forward > sin(θmax), with θmax the angle of
@@ -568,6 +579,7 @@ impl TgFrame {
         self.cone_k = cone_k;
         self.cone_r = cone_r;
         self.near_w = near_w;
+        self.camera_near_w = camera_near_w;
         self.depth_w0 = depth_w0;
         self.depth_scale = depth_scale;
         self.set_tick_depth();
@@ -581,6 +593,12 @@ impl TgFrame {
         self.kernel
     }
 
+    /// The camera depth (world units) nearer than which nothing is drawn: the camera's near plane,
+    /// or the frame's precision plane when that is farther ([`precision_near_w`]).
+    pub fn near_depth(&self) -> f64 {
+        f64::from(self.near_w) / self.w_per_unit
+    }
+
     /// Maps depth over `range` instead of this grid's own root cube, so that several objects drawn
     /// into one depth buffer z-test against each other (a scene: `crate::scene`). By default a
     /// frame spreads the 16-bit depth over its own root cube, so two objects' depths would not be
@@ -589,7 +607,7 @@ impl TgFrame {
         (self.depth_w0, self.depth_scale) = depth_map(
             range.near * self.w_per_unit,
             range.far * self.w_per_unit,
-            self.near_w,
+            self.camera_near_w,
         );
         self.set_tick_depth();
     }
@@ -605,6 +623,41 @@ impl TgFrame {
             });
         }
     }
+}
+
+/// Largest error, in pixels, that the rounding of a frame's integer tables may add to the position
+/// of a splat at or beyond the frame's precision plane ([`precision_near_w`]).
+pub const PRECISION_ERROR_PX: f64 = 0.4;
+
+/// The frame's precision plane, in `W` units: beyond it the rounding of the tables moves no splat
+/// by more than [`PRECISION_ERROR_PX`], so a frame draws nothing nearer (issue 18).
+///
+/// One scale covers the whole root cube (`max(|X|, |Y|) + 320·|W| ≤ 2³⁰`), so `W` has about 2²¹
+/// steps over the cube's depth, and a cell ten steps from the eye is drawn with an error of
+/// pixels. The proof of the bound: a drawn splat's `(X, Y, W)` is the root's rounded centre plus one
+/// rounded displacement per level, each within half a step of the exact value per component, plus,
+/// for an interior cell, its children's centroid, `Σₐ oₐ·tickₐ >> 6` with `|oₐ| ≤ 64·(ρ − 1)` and
+/// each tick within half a step: in all within `E = (depth + 1)/2 + 3·(ρ − 1)/2 + 1` steps per
+/// component (the `+ 1` the shift's floor). A pixel coordinate `p = X / W` then errs by at most
+/// `(E + |p|·E) / (W − E)`, so `W ≥ (1 + 400)·E / PRECISION_ERROR_PX + E` bounds it by
+/// [`PRECISION_ERROR_PX`] for every splat centred within 80 px of the screen (`|p| ≤ 400`); a
+/// larger splat centred farther off the screen errs by at most that times `|p| / 400`. A splat's
+/// size errs by at most `E / (W − E)` of itself (0.1 % there). Not from the frame's scale, and
+/// the same at any depth: the reciprocal's 2⁻¹⁷ (0.003 px), the Q8 rounding (0.002 px) and the
+/// centroid's Q6 weights (1/128 of the cell's projected side); the linearised loops start farther
+/// out (`TgFrame::linear_w` ≥ 2¹⁸) with their own bound.
+///
+/// For ρ = 3 and depth 9 this is 9 032 steps, a few thousandths of the `W` range (the eye at the
+/// centre of a bounding sphere of radius 1: 4.8·10⁻³ radii; the orbit camera's own near plane is
+/// 10⁻³ radii). The standard views of every model never come that near a surface, so they draw
+/// the same pixels; an eye nearer a surface than that sees it clipped, as by a near plane, instead
+/// of misplaced by up to pixels (0.8 px at ten steps, the stability suite's stiffest case before
+/// issue 18). It costs nothing per node: the traversal already tests `W ≥ near_w`.
+pub fn precision_near_w(header: &Header) -> i32 {
+    let steps = 0.5 * (f64::from(header.depth) + 1.0) + 1.5 * (f64::from(header.rho) - 1.0) + 1.0;
+    to_i32(libm::ceil(
+        (1.0 + 1.25 * HEIGHT as f64) * steps / PRECISION_ERROR_PX + steps,
+    ))
 }
 
 /// Sets the bit of every normal code with `n · fq > threshold` in `back` and of every one with
@@ -661,8 +714,8 @@ impl DepthRange {
     /// The camera depths of the grid's root cube placed by `placement`: the extremes over its eight
     /// corners (camera depth is linear, so they bound the whole cube).
     pub fn of_root_cube(header: &Header, placement: &Placement, camera: &Camera) -> DepthRange {
-        let side = f64::from(header.side);
-        let origin = header.origin.map(f64::from);
+        let side = header.side64;
+        let origin = header.origin64;
         let mut r = DepthRange::EMPTY;
         for corner in 0..8 {
             let p: Vec3 =

@@ -34,6 +34,13 @@ pub const FLAG_COLOR: u16 = 1;
 /// Header flag (version 2, ρ = 3 only): bits 27..30 of each child mask hold the cell's normal-cone
 /// class ([`frame::CONE_ANGLES_DEG`]).
 pub const FLAG_CONES: u16 = 2;
+/// Header flag: the precise root cube and bounding box follow the CRC list of the table blocks in
+/// the header block, as ten little-endian `f64` (corner x, y, z, side, bounds min x, y, z, max x,
+/// y, z; FORMAT.md). Readers render with them; the `f32` fields stay valid (a cube containing the
+/// mesh) for readers that do not know the flag.
+pub const FLAG_PRECISE: u16 = 4;
+/// Bytes of the [`FLAG_PRECISE`] extension.
+pub const PRECISE_BYTES: usize = 80;
 /// First bit of the normal-cone class in a ρ = 3 child mask.
 pub const CONE_SHIFT: u32 = 27;
 /// Byte offset of the level directory in block 0.

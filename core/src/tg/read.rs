@@ -3,8 +3,8 @@
 
 use super::{
     mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, CONE_SHIFT, DIRECTORY_ENTRY,
-    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS,
-    VERSION,
+    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH,
+    MAX_LEVELS, PRECISE_BYTES, VERSION,
 };
 use crate::crc::crc32;
 
@@ -36,6 +36,14 @@ pub enum TgError {
     BadRootCube {
         /// Byte offset of the offending `f32` in the header (16..=28 root cube, 48..=68 bounds).
         offset: u8,
+    },
+    /// The precise root cube and bounds ([`FLAG_PRECISE`]) do not fit the header block, or one of
+    /// its numbers is not finite, the side is not positive, the corner is more than
+    /// [`MAX_CORNER_SIDES`] sides from 0, the box is inverted or leaves the cube.
+    BadPrecise {
+        /// Byte offset of the offending `f64` (or of the extension, when it does not fit) in the
+        /// header.
+        offset: u16,
     },
     /// A reserved header byte is not 0.
     ReservedNotZero {
@@ -121,6 +129,11 @@ impl core::fmt::Display for TgError {
                     _ => "bounding box",
                 }
             ),
+            TgError::BadPrecise { offset } => write!(
+                f,
+                "header field at byte {offset} (precise root cube or bounds, f64): missing, not \
+                 finite, no size, inverted, outside the cube or lost in its corner's rounding"
+            ),
             TgError::ReservedNotZero { offset } => {
                 write!(f, "reserved header byte {offset} is not 0")
             }
@@ -181,6 +194,9 @@ fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
 fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
     take(bytes, at).map(f32::from_le_bytes)
 }
+fn f64_at(bytes: &[u8], at: usize) -> Option<f64> {
+    take(bytes, at).map(f64::from_le_bytes)
+}
 
 /// The fixed fields of a `.tg` header.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -209,6 +225,13 @@ pub struct Header {
     pub crc_table_blocks: u32,
     /// Bounding box of the mesh, model units: min, max.
     pub bounds: [[f32; 3]; 2],
+    /// The root cube's minimum corner as rendering uses it: the header's `f64` extension
+    /// ([`FLAG_PRECISE`]) when present, else [`Header::origin`] (exactly).
+    pub origin64: [f64; 3],
+    /// The root cube's side as rendering uses it ([`Header::origin64`]).
+    pub side64: f64,
+    /// The bounding box as views use it ([`Header::origin64`]).
+    pub bounds64: [[f64; 3]; 2],
 }
 
 impl Header {
@@ -223,6 +246,10 @@ impl Header {
     /// Whether child masks carry normal-cone classes.
     pub fn has_cones(&self) -> bool {
         self.flags & FLAG_CONES != 0
+    }
+    /// Whether the header holds the precise (`f64`) root cube and bounds.
+    pub fn has_precise(&self) -> bool {
+        self.flags & FLAG_PRECISE != 0
     }
     /// Number of levels (depth + 1).
     pub fn levels(&self) -> usize {
@@ -337,7 +364,7 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     }
     let flags = u16_at(block, 6).ok_or(short)?;
     let known = if version >= 2 {
-        FLAG_COLOR | FLAG_CONES
+        FLAG_COLOR | FLAG_CONES | FLAG_PRECISE
     } else {
         FLAG_COLOR
     };
@@ -425,7 +452,7 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     }
     let blocks = u32_at(block, 32).ok_or(short)?;
     let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
-    let header = Header {
+    let mut header = Header {
         version,
         flags,
         rho,
@@ -438,6 +465,9 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         blocks,
         crc_table_blocks,
         bounds,
+        origin64: origin.map(f64::from),
+        side64: side_f64,
+        bounds64: bounds.map(|c| c.map(f64::from)),
     };
     // The table-block CRC list must fit in block 0, and the table must cover every block.
     let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * header.levels();
@@ -450,6 +480,10 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         || u64::from(crc_table_blocks) >= u64::from(blocks)
     {
         return Err(TgError::BadCrcTable(crc_table_blocks));
+    }
+    if header.has_precise() {
+        let at = list_end.unwrap_or(usize::MAX);
+        read_precise(block, at, &mut header)?;
     }
     let mut levels = [LevelDir::default(); MAX_LEVELS];
     for (l, dir) in levels.iter_mut().enumerate().take(header.levels()) {
@@ -472,6 +506,51 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     }
     check_directory(&header, &levels)?;
     Ok((header, levels))
+}
+
+/// The precise root cube and bounds (FORMAT.md, flag bit 2): ten `f64` at `at`, right after the CRC
+/// list, checked as the `f32` ones are, into `header`'s `origin64`, `side64` and `bounds64`.
+fn read_precise(block: &[u8], at: usize, header: &mut Header) -> Result<(), TgError> {
+    let bad = |k: usize| TgError::BadPrecise {
+        offset: at.saturating_add(8 * k).min(usize::from(u16::MAX)) as u16,
+    };
+    if at
+        .checked_add(PRECISE_BYTES)
+        .is_none_or(|e| e > block.len() - 4)
+    {
+        return Err(bad(0));
+    }
+    let mut v = [0.0f64; 10];
+    for (k, x) in v.iter_mut().enumerate() {
+        *x = f64_at(block, at + 8 * k).ok_or(bad(k))?;
+        if !x.is_finite() {
+            return Err(bad(k));
+        }
+    }
+    let origin = [v[0], v[1], v[2]];
+    let side = v[3];
+    if side <= 0.0 {
+        return Err(bad(3));
+    }
+    if let Some(a) = (0..3).find(|&a| libm::fabs(origin[a]) > MAX_CORNER_SIDES * side) {
+        return Err(bad(a));
+    }
+    let bounds = [[v[4], v[5], v[6]], [v[7], v[8], v[9]]];
+    for a in 0..3 {
+        let (lo, hi) = (origin[a], origin[a] + side);
+        if bounds[0][a] > bounds[1][a] {
+            return Err(bad(4 + a));
+        }
+        for (k, b) in bounds.iter().enumerate() {
+            if !(lo..=hi).contains(&b[a]) {
+                return Err(bad(4 + 3 * k + a));
+            }
+        }
+    }
+    header.origin64 = origin;
+    header.side64 = side;
+    header.bounds64 = bounds;
+    Ok(())
 }
 
 /// Every array of every level must be present exactly when the format says, aligned, after the CRC

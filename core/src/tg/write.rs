@@ -5,7 +5,7 @@ use std::vec::Vec;
 
 use super::{
     mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, CONE_SHIFT, DIRECTORY_ENTRY,
-    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, MAGIC, VERSION,
+    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAGIC, PRECISE_BYTES, VERSION,
 };
 use crate::bake::cone::cone_classes;
 use crate::bake::BakedGrid;
@@ -104,7 +104,12 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
         }
         t += 1;
     };
-    if list_at + 4 * t > bs - 4 {
+    let precise_bytes = if grid.precise.is_some() {
+        PRECISE_BYTES
+    } else {
+        0
+    };
+    if list_at + 4 * t + precise_bytes > bs - 4 {
         return Err(WriteError::TooLarge {
             blocks: blocks as u64,
         });
@@ -151,7 +156,10 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
     let h = &mut file[..bs];
     h[0..4].copy_from_slice(&MAGIC);
     h[4..6].copy_from_slice(&VERSION.to_le_bytes());
-    let flags = if color { FLAG_COLOR } else { 0 } | if cones.is_empty() { 0 } else { FLAG_CONES };
+    let precise = grid.precise.map_or(0, |_| FLAG_PRECISE);
+    let flags = if color { FLAG_COLOR } else { 0 }
+        | if cones.is_empty() { 0 } else { FLAG_CONES }
+        | precise;
     h[6..8].copy_from_slice(&flags.to_le_bytes());
     h[8] = grid.rho;
     h[9] = depth as u8;
@@ -177,6 +185,19 @@ pub fn write_tg(grid: &BakedGrid, block_log2: u8) -> Result<Vec<u8>, WriteError>
         h[e..e + 4].copy_from_slice(&count.to_le_bytes());
         for (k, o) in offs.iter().enumerate() {
             h[e + 4 + 4 * k..e + 8 + 4 * k].copy_from_slice(&o.to_le_bytes());
+        }
+    }
+
+    // The precise root cube and bounds, after the CRC list (FORMAT.md, flag bit 2).
+    if let Some(p) = &grid.precise {
+        let values = p
+            .origin
+            .iter()
+            .chain([&p.side])
+            .chain(p.bounds.iter().flatten());
+        for (k, v) in values.enumerate() {
+            let at = list_at + 4 * t + 8 * k;
+            h[at..at + 8].copy_from_slice(&v.to_le_bytes());
         }
     }
 

@@ -27,7 +27,7 @@ use pocketsplat_core::raster::{drawn_pixels, Kernel, MAX_SPLAT_PX};
 use pocketsplat_core::shade::{phong, to_rgb565, ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
-use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
+use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND, PRECISION_ERROR_PX};
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
 
@@ -69,7 +69,9 @@ impl Outcome {
         self.failures.push(why.into());
     }
     /// Turns a measured failure into a known one when it is exactly the documented behaviour, and
-    /// into a failure ("known failure changed") otherwise.
+    /// into a failure ("known failure changed") otherwise. (No case has a known failure since
+    /// issue 18; kept for the next one.)
+    #[allow(dead_code)]
     fn expect_known(&mut self, reproduced: bool, reason: &str) {
         if reproduced {
             self.failures.clear();
@@ -540,8 +542,8 @@ impl Baked {
         let tg = TriGrid::open(&bytes, Verify::Full).expect("open");
         let h = tg.header();
         let rho = usize::from(h.rho);
-        let side0 = f64::from(h.side);
-        let mut centres = vec![vec![h.origin.map(|o| f64::from(o) + 0.5 * side0)]];
+        let side0 = h.side64;
+        let mut centres = vec![vec![h.origin64.map(|o| o + 0.5 * side0)]];
         let mut side = vec![side0];
         for l in 0..h.depth {
             let parent = side[usize::from(l)];
@@ -594,15 +596,16 @@ impl Baked {
         TriGrid::open(&self.bytes, Verify::Structure).expect("open")
     }
 
-    /// The model's bounding box as the file stores it.
-    pub fn bounds(&self) -> [[f32; 3]; 2] {
-        self.tg().header().bounds
+    /// The model's bounding box as the file gives it to views (`bounds64`: precise when the header
+    /// has the `f64` extension).
+    pub fn bounds(&self) -> [[f64; 3]; 2] {
+        self.tg().header().bounds64
     }
 }
 
 /// The bounding sphere of a placed model (the orbit camera's pivot).
-pub fn world_sphere(bounds: [[f32; 3]; 2], placement: &Placement) -> Sphere {
-    let s = Sphere::from_bounds(bounds);
+pub fn world_sphere(bounds: [[f64; 3]; 2], placement: &Placement) -> Sphere {
+    let s = Sphere::from_bounds_f64(bounds);
     Sphere {
         center: placement.apply(s.center),
         radius: s.radius * placement.scale,
@@ -662,6 +665,9 @@ pub struct Measured {
     pub fb: FrameBuffers,
     /// What the splat-by-splat checks found.
     pub checks: Checks,
+    /// The frame's near plane, world units: the camera's, or the frame's precision plane when that
+    /// is farther (`TgFrame::near_depth`).
+    pub near_depth: f64,
 }
 
 /// What the splat-by-splat checks of one frame found.
@@ -1043,7 +1049,7 @@ fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Measured {
     let tg = shot.baked.tg();
     let h = tg.header();
     let frame = TgFrame::new(h, &shot.placement, &shot.camera, &shot.opts).expect("frame set-up");
-    let bounds = h.bounds.map(|c| c.map(f64::from));
+    let bounds = h.bounds64;
     let model_boxes = shot
         .baked
         .side
@@ -1104,6 +1110,7 @@ fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Measured {
         stats,
         fb,
         checks: measured,
+        near_depth: frame.near_depth(),
     }
 }
 
@@ -1113,8 +1120,9 @@ fn check(shot: &Shot<'_>) -> Outcome {
 }
 
 /// Requires that something was drawn (a vacuous pass proves nothing) where, in f64, some leaf's
-/// footprint covers a pixel centre. A model smaller than that draws nothing: its splats, exact
-/// footprints, cover no pixel centre, as the surface itself covers none.
+/// footprint covers a pixel centre beyond the frame's near plane (the camera's, or the frame's
+/// precision plane, `TgFrame::near_depth`). A model smaller than that draws nothing: its splats,
+/// exact footprints, cover no pixel centre, as the surface itself covers none.
 fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let m = shoot(shot);
     let mut o = m.outcome();
@@ -1122,9 +1130,12 @@ fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let leaf = b.side.len() - 1;
     let half = 0.5 * FOOTPRINT * b.side[leaf] * shot.placement.scale;
     let cam = &shot.camera;
+    // A leaf straddling the plane may be drawn or not (its centre decides): only leaves wholly
+    // beyond it must be.
+    let near = cam.near.max(m.near_depth) + half * 3f64.sqrt();
     let over_a_centre = b.centres[leaf].iter().any(|&c| {
         let [x, y, z] = model_to_camera(cam, &shot.placement, c);
-        if z <= cam.near {
+        if z <= near {
             return false;
         }
         let p = cam.screen(x, y, z);
@@ -1142,6 +1153,13 @@ fn check_drawn(shot: &Shot<'_>) -> Outcome {
     if !over_a_centre {
         o.notes
             .push_str("; no leaf covers a pixel centre: nothing to draw");
+    }
+    if m.near_depth > cam.near {
+        let _ = write!(
+            o.notes,
+            "; the frame's precision plane clips at {:.1} × the camera's near plane",
+            m.near_depth / cam.near
+        );
     }
     o
 }
@@ -1266,9 +1284,8 @@ fn axes(r: &mut Runner) {
                 // The same in pixels: how far the model's bounding-box corners move on screen.
                 let (lo, hi) = (b.bounds()[0], b.bounds()[1]);
                 for k in 0..8 {
-                    let p: Vec3 = std::array::from_fn(|a| {
-                        f64::from(if k >> a & 1 == 1 { hi[a] } else { lo[a] })
-                    });
+                    let p: Vec3 =
+                        std::array::from_fn(|a| if k >> a & 1 == 1 { hi[a] } else { lo[a] });
                     if let (Some(p1), Some(p2)) = (at.project(p), near.project(p)) {
                         worst_pixels = worst_pixels
                             .max((p1[0] - p2[0]).abs().max((p1[1] - p2[1]).abs()));
@@ -1387,7 +1404,8 @@ fn scale(r: &mut Runner) {
             o
         });
     }
-    // 2. The mesh itself scaled or moved, then baked: the `.tg` root cube is f32.
+    // 2. The mesh itself scaled or moved, then baked: the `.tg` root cube is f32, and f64 where f32
+    // would re-grid the mesh.
     for (name, f, exact) in [
         ("mesh scaled by 2^-20", 2f64.powi(-20), true),
         ("mesh scaled by 2^20", 2f64.powi(20), true),
@@ -1429,29 +1447,29 @@ fn scale(r: &mut Runner) {
             4,
         );
         let mut o = Outcome::default();
+        // The `f32` root cube and bounds have a spacing of 1 model unit (half the blob) at 10⁷: the
+        // baker builds the grid on an `f64` cube and the file stores it in the header's extension
+        // (FORMAT.md, flag bit 2), which the frame and the orbit camera use.
+        if !b.tg().header().has_precise() {
+            o.fail("the file has no precise (f64) root cube");
+        }
         let mut diffs = Vec::new();
-        let mut total = 0;
         for ((vname, v), want) in views.iter().zip(reference) {
             let m = shoot(&Shot::orbit(&b, *v, 45.0));
             let mo = m.outcome();
             o.worst = o.worst.max(mo.worst);
             o.failures.extend(mo.failures);
             let d = differing(&m.fb, want);
-            total += d;
             diffs.push(format!("{vname}: {d} px differ"));
+            // As for a mesh scaled by 10⁶: the f64 cube is not the unit model's f32 one bit for bit
+            // (6·10⁻⁸ of the side apart), so a handful of pixel-centre decisions may flip.
+            if d > 20 {
+                o.fail(format!("{vname}: {d} pixels differ (allowed 20)"));
+            }
         }
         o.unit = "px";
         o.limit = MAX_ERROR_PX;
         o.notes = format!("image vs unit model: {}", diffs.join(", "));
-        // The file's root cube and bounds are f32, whose spacing at 10⁷ is 1 model unit (half the
-        // blob): the grid and the orbit pivot move. Projection stays exact; the image does not match.
-        let reproduced = o.failures.is_empty() && total > 1000;
-        o.expect_known(
-            reproduced,
-            "`.tg` stores the root cube and bounds as f32 (spacing 1 unit at 10⁷), so a mesh far from \
-             its origin is re-gridded and re-centred; bake it near the origin and place it with a \
-             Placement (f64), which matches exactly",
-        );
         o
     });
 }
@@ -1654,40 +1672,84 @@ fn shapes(r: &mut Runner) {
                 check_drawn(&shot)
             });
         }
-        // Beyond the orbit camera (whose near plane is 10⁻³ radii): an eye 10 cluster radii from the
-        // cluster, near plane 10⁻⁸ radii.
-        for (name, dist, known) in [
+        // Beyond the orbit camera (whose near plane is 10⁻³ radii): an eye 100 and 10 cluster radii
+        // from the cluster, near plane 10⁻⁸ radii. One frame scale covers the root cube, so `W` has
+        // about 2²¹ steps over it and the cluster is some 100 or 10 steps from the eye, where the
+        // rounding of the tables could move it by pixels (0.2 and 0.8 px were measured before
+        // issue 18): the frame's precision plane (`TgFrame::near_depth`) must clip it, as a near
+        // plane would, rather than draw it misplaced.
+        for (name, dist) in [
             (
                 "cluster + outliers (1e6), eye 1e-4 radii from the cluster",
                 1e-4,
-                false,
             ),
             (
                 "cluster + outliers (1e6), eye 1e-5 radii from the cluster",
                 1e-5,
-                true,
             ),
         ] {
             r.case(name, || {
                 let mut shot = Shot::orbit(&b, View::new(20.0, 10.0, dist), 45.0).culling(false);
-                shot.camera.near = 1e-8 * world_sphere(b.bounds(), &shot.placement).radius;
+                let radius = world_sphere(b.bounds(), &shot.placement).radius;
+                shot.camera.near = 1e-8 * radius;
                 shot.opts.cutoff_px = 0.5;
-                let mut o = check_drawn(&shot);
-                if known {
-                    let only_projection = o.failures.iter().all(|f| {
-                        f.starts_with("projected error") || f.starts_with("first:")
-                    });
-                    o.expect_known(
-                        only_projection && o.worst > MAX_ERROR_PX && o.worst < 2.0,
-                        "the stiff case past the orbit camera's near plane (10⁻³ radii): one frame \
-                         scale covers the root cube, so W has about 2²¹ steps over it and a cell 10⁻⁵ \
-                         radii from the eye is only some ten steps away; the few steps of rounding \
-                         the displacement tables add move it by 0.5–2 px (graceful, no overflow)",
-                    );
+                let m = shoot(&shot);
+                let mut o = m.outcome();
+                if m.near_depth < 2.0 * dist * radius {
+                    o.fail(format!(
+                        "the frame's near plane is at {:.2e} radii, in front of the cluster",
+                        m.near_depth / radius
+                    ));
                 }
+                if m.stats.splats != 0 {
+                    o.fail(format!(
+                        "{} splats drawn nearer than the precision plane",
+                        m.stats.splats
+                    ));
+                }
+                let _ = write!(
+                    o.notes,
+                    "; the frame's precision plane at {:.2e} radii clips the cluster",
+                    m.near_depth / radius
+                );
                 o
             });
         }
+        // The precision plane's bound, checked where it is tightest: the eye just beyond it from
+        // the cluster, whose cell must be drawn within `PRECISION_ERROR_PX` (0.4 px).
+        r.case(
+            "cluster + outliers (1e6), eye 1.1 precision planes from the cluster",
+            || {
+                let view = |dist| View::new(20.0, 10.0, dist);
+                let mut shot = Shot::orbit(&b, view(1e-5), 45.0).culling(false);
+                let radius = world_sphere(b.bounds(), &shot.placement).radius;
+                // The plane's depth hardly depends on where the eye is (the frame's scale is set by
+                // the whole root cube), so one look at it places the eye.
+                let probe =
+                    TgFrame::new(b.tg().header(), &shot.placement, &shot.camera, &shot.opts)
+                        .expect("frame set-up");
+                let dist = 1.1 * probe.near_depth() / radius;
+                shot = Shot::orbit(&b, view(dist), 45.0).culling(false);
+                shot.camera.near = 1e-8 * radius;
+                shot.opts.cutoff_px = 0.5;
+                let mut o = check_drawn(&shot);
+                let m = shoot(&shot);
+                if m.stats.splats == 0 || m.near_depth > dist * radius {
+                    o.fail(format!(
+                        "the cluster at {dist:.2e} radii is not drawn (precision plane at {:.2e})",
+                        m.near_depth / radius
+                    ));
+                }
+                if o.worst > PRECISION_ERROR_PX {
+                    o.fail(format!(
+                        "error {:.3} px beyond the precision plane (bound {PRECISION_ERROR_PX} px)",
+                        o.worst
+                    ));
+                }
+                let _ = write!(o.notes, "; eye {dist:.2e} radii from the cluster");
+                o
+            },
+        );
         r.case(
             "cluster + outliers (1e6): the cluster's cell is drawn",
             || {
@@ -1792,7 +1854,7 @@ fn lights(r: &mut Runner) {
     // it from the light.
     // The map spans the root cube (side 2) across the light: at most 2√3 wide.
     let map_texel = 2.0 * 3f64.sqrt() / crate::render::DEFAULT_SHADOW_MAP_SIZE as f64;
-    let mut scenes: Vec<(String, usize, f64, Vec3, f64, bool)> = Vec::new();
+    let mut scenes: Vec<(String, usize, f64, Vec3, f64)> = Vec::new();
     for a in 0..3 {
         for sigma in [1.0, -1.0] {
             let mut l = [0.0; 3];
@@ -1804,24 +1866,18 @@ fn lights(r: &mut Runner) {
                 sigma,
                 l,
                 0.5,
-                false,
             ));
         }
     }
     // Grazing: the occluder's shadow falls off the ground below ~8°, so every ground sample is lit
-    // (or, at 0°, facing away: in shadow by definition).
+    // (or, at 0°, facing away: in shadow by definition). Below 7.1° the slope bias needs tangents
+    // above 8 (the ground's baked normal at EL 2° is 2.8° from the light: tangent 20), which a clamp
+    // at 8 left to acne on 24 416 samples until issue 18.
     for el in [10.0, 5.0, 2.0, 0.0] {
         let l = camera::direction(25.0, el);
-        scenes.push((
-            format!("grazing light, EL {el}°"),
-            1,
-            1.0,
-            l,
-            0.1,
-            el == 2.0,
-        ));
+        scenes.push((format!("grazing light, EL {el}°"), 1, 1.0, l, 0.1));
     }
-    for (name, a, sigma, l, height, known_acne) in scenes {
+    for (name, a, sigma, l, height) in scenes {
         let Some(b) = r.setup(&name, || Baked::new(&shadow_scene(a, sigma, height), 3, 5)) else {
             continue;
         };
@@ -1884,19 +1940,6 @@ fn lights(r: &mut Runner) {
                         o.notes,
                         "; acne on {} samples changes their colour by up to {} RGB565 steps",
                         m.checks.shadow_acne, m.checks.acne_steps
-                    );
-                }
-                if known_acne {
-                    let c = &m.checks;
-                    let only_shadows = o
-                        .failures
-                        .iter()
-                        .all(|f| f.contains("shadow state") || f.starts_with("first:"));
-                    o.expect_known(
-                        only_shadows && c.shadow_acne > 0 && c.shadow_wrong == c.shadow_acne,
-                        "self-shadowing acne on ground lit at 2° (baked normal at 2.8°): the slope \
-                         bias (shadow.rs) clamps tan θ at 8, i.e. covers light down to 7.1° above \
-                         a surface; below that acne removes the diffuse term, up to 2 RGB565 steps",
                     );
                 }
                 o

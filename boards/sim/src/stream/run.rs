@@ -84,7 +84,7 @@ impl OwnedStream {
 
 /// The camera of `settings` for the stream's model.
 pub fn camera_for(stream: &TgStream<'_>, settings: &Settings) -> Camera {
-    settings.camera(stream.header().bounds)
+    settings.camera(stream.header().bounds64)
 }
 
 /// Draws one frame from what is resident into `out` (cleared first), queueing what is missing.

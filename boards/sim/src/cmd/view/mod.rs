@@ -132,7 +132,7 @@ impl Scene for TgScene<'_> {
         out: &mut FrameBuffers,
         overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
     ) -> Result<FrameReport> {
-        let cam = panned_camera(settings, self.grid.header().bounds, pan);
+        let cam = panned_camera(settings, self.grid.header().bounds64, pan);
         render_tg_from(&self.grid, settings, &cam, &mut self.table, out, overlay)
     }
 }

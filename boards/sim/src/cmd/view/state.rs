@@ -206,8 +206,12 @@ fn wrap_deg(a: f64) -> f64 {
 
 /// The orbit camera of `settings` around the model's bounding sphere, its centre moved by `pan`
 /// radii.
-pub fn panned_camera(settings: &Settings, bounds: [[f32; 3]; 2], pan: [f64; 3]) -> Camera {
-    let sphere = Sphere::from_bounds(bounds);
+pub fn panned_camera(
+    settings: &Settings,
+    bounds: impl crate::render::ModelBounds,
+    pan: [f64; 3],
+) -> Camera {
+    let sphere = bounds.sphere();
     let center = camera::add(sphere.center, camera::scale(pan, sphere.radius));
     Camera::orbit(
         Sphere {

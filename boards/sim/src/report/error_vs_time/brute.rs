@@ -97,9 +97,9 @@ impl LeafCloud {
             }
             cells = next;
         }
-        let side = f64::from(h.side);
+        let side = h.side64;
         let leaf_side = side / f64::from(rho).powi(i32::from(h.depth));
-        let origin = h.origin.map(f64::from);
+        let origin = h.origin64;
         let points = cells
             .iter()
             .map(|c| [0, 1, 2].map(|k| origin[k] + (f64::from(c[k]) + 0.5) * leaf_side))
@@ -453,7 +453,7 @@ mod tests {
         let mut seen = std::collections::HashSet::new();
         for p in &cloud.points {
             let ijk: [i64; 3] = std::array::from_fn(|k| {
-                let u = (p[k] - f64::from(h.origin[k])) / cloud.leaf_side - 0.5;
+                let u = (p[k] - h.origin64[k]) / cloud.leaf_side - 0.5;
                 assert!((u - u.round()).abs() < 1e-6, "{p:?} is not a cell centre");
                 assert!(
                     u > -0.5 && u < cells - 0.5,
