@@ -80,20 +80,16 @@ pub struct ShadedRaster<'f, 'b, 't, const W: usize, const H: usize, const M: usi
     pub kernel: Kernel,
 }
 
-/// The sample's shaded colour: lit, or the material's ambient term in shadow.
-#[inline(always)]
-fn lit<const M: usize>(table: &ShadingTable<M>, s: &SampleSplat) -> u16 {
-    if s.shadowed {
-        table.shadowed(s.attr)
-    } else {
-        table.color(s.attr)
-    }
-}
-
-impl<const W: usize, const H: usize, const M: usize> ShadedRaster<'_, '_, '_, W, H, M> {
-    /// Draws `s` in `color`.
+impl<const W: usize, const H: usize, const M: usize> SplatSink
+    for ShadedRaster<'_, '_, '_, W, H, M>
+{
     #[inline(always)]
-    fn draw(&mut self, s: &SampleSplat, color: u16) {
+    fn splat(&mut self, s: &SampleSplat) {
+        let color = if s.shadowed {
+            self.table.shadowed(s.attr)
+        } else {
+            self.table.color(s.attr)
+        };
         self.fb.splat(
             &Splat {
                 x_q8: s.x_q8,
@@ -106,16 +102,6 @@ impl<const W: usize, const H: usize, const M: usize> ShadedRaster<'_, '_, '_, W,
             s.exact,
         );
     }
-}
-
-impl<const W: usize, const H: usize, const M: usize> SplatSink
-    for ShadedRaster<'_, '_, '_, W, H, M>
-{
-    #[inline(always)]
-    fn splat(&mut self, s: &SampleSplat) {
-        let color = lit(self.table, s);
-        self.draw(s, color);
-    }
 
     #[inline(always)]
     fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
@@ -125,7 +111,13 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
         }
         let table = self.table;
         // Shaded only if it passes the depth test.
-        self.fb.pixel(x, y, s.depth, || lit(table, s));
+        self.fb.pixel(x, y, s.depth, || {
+            if s.shadowed {
+                table.shadowed(s.attr)
+            } else {
+                table.color(s.attr)
+            }
+        });
     }
 }
 
@@ -169,8 +161,22 @@ impl<const W: usize, const H: usize, const M: usize> ColorSink
 {
     #[inline]
     fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
-        let color = modulate(lit(self.table, s), rgb565);
-        self.draw(s, color);
+        let lit = if s.shadowed {
+            self.table.shadowed(s.attr)
+        } else {
+            self.table.color(s.attr)
+        };
+        self.fb.splat(
+            &Splat {
+                x_q8: s.x_q8,
+                y_q8: s.y_q8,
+                size_q8: s.size_q8,
+                depth: s.depth,
+                color: modulate(lit, rgb565),
+            },
+            self.kernel,
+            s.exact,
+        );
     }
 }
 
