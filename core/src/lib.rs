@@ -31,6 +31,7 @@ macro_rules! count {
 pub mod camera;
 pub mod crc;
 pub mod fixed;
+pub mod format;
 pub mod lod;
 pub mod normal;
 #[cfg(feature = "qsplat")]

@@ -20,7 +20,7 @@ use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::scene::render_scene;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::scene::render_scene_in;
-use pocketsplat_core::scene::{PackShadows, Scene, SceneError, SceneOptions, MAGIC, MAX_SLOTS};
+use pocketsplat_core::scene::{PackShadows, Scene, SceneError, SceneOptions, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
@@ -45,7 +45,8 @@ pub type SceneTable = ShadingTable<MAX_SLOTS>;
 
 /// Whether `bytes` start like a scene pack (its magic, `PSPK`).
 pub fn is_pack(bytes: &[u8]) -> bool {
-    bytes.starts_with(&MAGIC)
+    pocketsplat_core::format::FileFormat::sniff(bytes)
+        == Some(pocketsplat_core::format::FileFormat::Pack)
 }
 
 /// Where a frame of a scene is drawn (statics on the device, the heap on the host).

@@ -297,8 +297,8 @@ impl<'a> FrameLine<'a> {
     }
 }
 
-/// How every QSplat file starts (`QSplat11` for version 11; `reference/qsplat-format.md`).
-pub const QSPLAT_MAGIC_PREFIX: [u8; 6] = *b"QSplat";
+/// How every QSplat file starts (`QSplat11` for version 11; the core's `format` module).
+pub const QSPLAT_MAGIC_PREFIX: [u8; 6] = pocketsplat_core::format::QS_MAGIC_PREFIX;
 
 /// The file formats a [`Model`] can be.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -330,10 +330,9 @@ impl Format {
     /// The format of a file from its first bytes: [`Format::QSplat`] when they are
     /// [`QSPLAT_MAGIC_PREFIX`], otherwise [`Format::TriGrid`] (whose reader checks its own magic).
     pub fn of(bytes: &[u8]) -> Self {
-        if bytes.starts_with(&QSPLAT_MAGIC_PREFIX) {
-            Format::QSplat
-        } else {
-            Format::TriGrid
+        match pocketsplat_core::format::FileFormat::sniff(bytes) {
+            Some(pocketsplat_core::format::FileFormat::QSplat) => Format::QSplat,
+            _ => Format::TriGrid,
         }
     }
 }

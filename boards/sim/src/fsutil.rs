@@ -47,6 +47,18 @@ pub fn read_magic(path: &Path, buf: &mut [u8]) -> Result<usize> {
     Ok(n)
 }
 
+/// The point format of the file at `path`, by its first bytes (`None`: not a point file, e.g. a mesh).
+///
+/// # Errors
+/// When the file cannot be opened or read (or is not a regular file).
+pub fn sniff(path: &Path) -> Result<Option<pocketsplat_core::format::FileFormat>> {
+    let mut magic = [0u8; pocketsplat_core::format::SNIFF_BYTES];
+    let n = read_magic(path, &mut magic)?;
+    Ok(pocketsplat_core::format::FileFormat::sniff(
+        magic.get(..n).unwrap_or_default(),
+    ))
+}
+
 fn check_regular(path: &Path, meta: &std::fs::Metadata) -> Result<()> {
     if meta.is_dir() {
         bail!("cannot read {}: it is a folder", path.display());

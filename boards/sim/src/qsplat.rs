@@ -6,9 +6,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 use pocketsplat_core::camera::{self, Camera, Placement};
-use pocketsplat_core::qs::{
-    render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions, MAGIC,
-};
+use pocketsplat_core::format::FileFormat;
+use pocketsplat_core::qs::{render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::{Material, ShadingTable};
 use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
@@ -22,9 +21,7 @@ use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
 /// # Errors
 /// When the file cannot be opened.
 pub fn is_qs(path: &Path) -> Result<bool> {
-    let mut magic = [0u8; 8];
-    let n = crate::fsutil::read_magic(path, &mut magic)?;
-    Ok((n == 8 && magic == MAGIC)
+    Ok(crate::fsutil::sniff(path)? == Some(FileFormat::QSplat)
         || path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("qs")))

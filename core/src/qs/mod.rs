@@ -19,7 +19,7 @@ pub use read::{ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsE
 pub use traverse::{render_qs, render_qs_colored, ColorSink};
 
 /// The magic of every fragment.
-pub const MAGIC: [u8; 8] = *b"QSplat11";
+pub const MAGIC: [u8; 8] = crate::format::QS_MAGIC;
 /// Bytes of a tree fragment's header.
 pub const HEADER_BYTES: usize = 40;
 /// Bytes of a comment fragment's header.

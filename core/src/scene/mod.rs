@@ -33,7 +33,7 @@ use crate::camera::Placement;
 use crate::shade::Material;
 
 /// File magic.
-pub const MAGIC: [u8; 4] = *b"PSPK";
+pub const MAGIC: [u8; 4] = crate::format::PACK_MAGIC;
 /// Current format version.
 pub const VERSION: u16 = 1;
 /// Most objects in a pack.

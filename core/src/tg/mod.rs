@@ -17,7 +17,7 @@ pub use traverse::{
 };
 
 /// File magic.
-pub const MAGIC: [u8; 4] = *b"PSTG";
+pub const MAGIC: [u8; 4] = crate::format::TG_MAGIC;
 /// Current format version (2: normal cones, [`FLAG_CONES`]). Version 1 files, which have no cones,
 /// are read too.
 pub const VERSION: u16 = 2;

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 use pocketsplat_core::camera::View;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde_json::json;
@@ -60,9 +61,7 @@ pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<Shadow
 
 /// Is this path a `.tg` file (by its magic), rather than a mesh?
 fn is_tg(path: &Path) -> Result<bool> {
-    let mut magic = [0u8; 4];
-    let n = crate::fsutil::read_magic(path, &mut magic)?;
-    Ok(n == 4 && magic == pocketsplat_core::tg::MAGIC)
+    Ok(crate::fsutil::sniff(path)? == Some(FileFormat::TriGrid))
 }
 
 /// The `render` command.

@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Result};
 use pocketsplat_core::camera::View;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::{Framebuffer, Kernel};
-use pocketsplat_core::scene::{ram_budget, Pack, PackShadows, Scene, MAGIC};
+use pocketsplat_core::scene::{ram_budget, Pack, PackShadows, Scene};
 use pocketsplat_core::tg::Verify;
 use serde_json::json;
 
@@ -27,8 +28,7 @@ pub fn is_scene_file(path: &Path) -> bool {
 /// Whether `path` is a scene pack (by its magic). A file that cannot be opened is not one (the
 /// caller's own reader then names the problem).
 pub fn is_pack(path: &Path) -> bool {
-    let mut magic = [0u8; 4];
-    crate::fsutil::read_magic(path, &mut magic).is_ok_and(|n| n == 4 && magic == MAGIC)
+    crate::fsutil::sniff(path).is_ok_and(|f| f == Some(FileFormat::Pack))
 }
 
 /// Whether the command line names `flag` (`--flag VALUE` or `--flag=VALUE`): for a pack, options

@@ -12,6 +12,7 @@ mod state;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::shade::ShadingTable;
@@ -170,20 +171,22 @@ impl Scene for QsScene<'_> {
 /// When the bytes are not a format the viewer knows, or the file is damaged; the message names
 /// `path`.
 pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn Scene + 'a>> {
-    if bytes.starts_with(&pocketsplat_core::tg::MAGIC) {
-        let grid = TriGrid::open(bytes, Verify::Full)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        return Ok(Box::new(TgScene::new(grid)));
-    }
-    if bytes.starts_with(&pocketsplat_core::scene::MAGIC) {
-        return crate::scene::cmd::open_view_scene(path, bytes);
-    }
-    if bytes.starts_with(&pocketsplat_core::qs::MAGIC) {
-        let file = QSplat::open(bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        return Ok(Box::new(QsScene {
-            file,
-            table: Box::new(ShadingTable::<1>::new()),
-        }));
+    match FileFormat::sniff(bytes) {
+        Some(FileFormat::TriGrid) => {
+            let grid = TriGrid::open(bytes, Verify::Full)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            return Ok(Box::new(TgScene::new(grid)));
+        }
+        Some(FileFormat::Pack) => return crate::scene::cmd::open_view_scene(path, bytes),
+        Some(FileFormat::QSplat) => {
+            let file =
+                QSplat::open(bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            return Ok(Box::new(QsScene {
+                file,
+                table: Box::new(ShadingTable::<1>::new()),
+            }));
+        }
+        None => {}
     }
     bail!(
         "{}: not a point file `pocketsplat view` can show (expected a .tg, .qs or .pack file; bake \
