@@ -256,3 +256,38 @@ mod tests {
         assert_eq!(t.color(away), to_rgb565([0.12, 0.12, 0.12]));
     }
 }
+
+/// Which shadow algorithm a frame uses (the names of `pocketsplat render --shadows`, and a scene pack's
+/// byte). Here, always compiled, so that a build without the `shadows` feature still names what it
+/// leaves out; the algorithms are in `shadow` (feature `shadows`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ShadowMode {
+    /// No shadows: no map, no light tables.
+    #[default]
+    Off,
+    /// One pass, children in light order (Duguet §5.3; in a scene, objects nearest the light
+    /// first); directional lights only (a point light's frame is drawn in two passes).
+    OnePass,
+    /// Shadow map first (of every object, in a scene), then the view.
+    TwoPass,
+}
+
+impl ShadowMode {
+    /// Every mode.
+    pub const ALL: [ShadowMode; 3] = [ShadowMode::Off, ShadowMode::OnePass, ShadowMode::TwoPass];
+
+    /// `off`, `one-pass` or `two-pass`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadowMode::Off => "off",
+            ShadowMode::OnePass => "one-pass",
+            ShadowMode::TwoPass => "two-pass",
+        }
+    }
+
+    /// The mode called `name` ([`ShadowMode::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}

@@ -897,19 +897,7 @@ impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {
     }
 }
 
-/// Which shadow algorithm a frame uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ShadowMode {
-    /// No shadows: no map, no light tables.
-    #[default]
-    Off,
-    /// One pass, children in light order (§5.3); directional lights only (a point light's frame is
-    /// drawn in two passes).
-    OnePass,
-    /// Shadow map first, then the view.
-    TwoPass,
-}
+pub use crate::shade::ShadowMode;
 
 /// Fills `map` (cleared first) with the grid's depth seen from the light. Returns nodes visited.
 pub fn fill_shadow_map(

@@ -313,7 +313,7 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
 pub fn pack_base_files() -> &'static [Vec<u8>] {
     use pocketsplat_core::camera::Sphere;
     use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
-    use pocketsplat_core::scene::{PackShadows, Savings};
+    use pocketsplat_core::scene::{ShadowMode, Savings};
     use pocketsplat_core::shade::DEFAULT_MATERIAL;
     static FILES: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
     FILES.get_or_init(|| {
@@ -334,7 +334,7 @@ pub fn pack_base_files() -> &'static [Vec<u8>] {
             depth_kept: 3,
             savings: Savings::default(),
         };
-        [PackShadows::Off, PackShadows::OnePass, PackShadows::TwoPass]
+        [ShadowMode::Off, ShadowMode::OnePass, ShadowMode::TwoPass]
             .into_iter()
             .map(|shadows| {
                 let contents = PackContents {
@@ -371,7 +371,7 @@ pub fn pack_base_files() -> &'static [Vec<u8>] {
 /// renders what opens from its first view and its path's middle, without shadows and with the
 /// pack's, checking the traversal's bounds per object.
 pub fn pack_open_and_render(bytes: &[u8]) {
-    use pocketsplat_core::scene::{render_scene, Pack, PackShadows, Scene, SceneOptions};
+    use pocketsplat_core::scene::{render_scene, Pack, ShadowMode, Scene, SceneOptions};
     let Ok(pack) = Pack::open(bytes) else {
         return;
     };
@@ -391,7 +391,7 @@ pub fn pack_open_and_render(bytes: &[u8]) {
         for view in views {
             let camera = scene.camera(view);
             let of = SceneOptions::of(&pack);
-            for shadows in [PackShadows::Off, of.shadows] {
+            for shadows in [ShadowMode::Off, of.shadows] {
                 let opts = SceneOptions {
                     shadows,
                     shadow_map_size: of.shadow_map_size.min(256),
@@ -403,7 +403,7 @@ pub fn pack_open_and_render(bytes: &[u8]) {
                 else {
                     continue;
                 };
-                let passes = if stats.shadows == PackShadows::TwoPass {
+                let passes = if stats.shadows == ShadowMode::TwoPass {
                     2
                 } else {
                     1

@@ -13,7 +13,7 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use pocketsplat_core::scene::{Pack, PackShadows, Scene};
+use pocketsplat_core::scene::{Pack, Scene, ShadowMode};
 use pocketsplat_core::tg::Verify;
 use pocketsplat_pda::scene::{scene_frame_specs, SCENE_CUTOFFS_PX};
 use pocketsplat_pda::Shadows;
@@ -56,7 +56,7 @@ fn big_scene_views_on_arm_match_the_host() {
 
     let bytes = std::fs::read(&pack_path).unwrap();
     let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
-    assert_eq!(scene.pack().shadows(), PackShadows::OnePass);
+    assert_eq!(scene.pack().shadows(), ShadowMode::OnePass);
     let mut host = HostSceneFrames::new();
     let reports = compare_scene_frames(&run.stdout(), &scene, &mut host)
         .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));

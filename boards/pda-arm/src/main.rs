@@ -148,7 +148,7 @@ mod firmware {
         let shadows = if cfg!(feature = "shadows") {
             p.shadows()
         } else {
-            pocketsplat_core::scene::PackShadows::Off
+            pocketsplat_core::scene::ShadowMode::Off
         };
         hprintln!(
             "pack bytes {} objects {} slots {} views {} map {} budget_bytes {}",

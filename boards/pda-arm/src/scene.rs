@@ -20,7 +20,7 @@ use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::scene::render_scene;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::scene::render_scene_in;
-use pocketsplat_core::scene::{PackShadows, Scene, SceneError, SceneOptions, MAX_SLOTS};
+use pocketsplat_core::scene::{Scene, SceneError, SceneOptions, ShadowMode, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
@@ -146,11 +146,11 @@ impl From<SceneError> for SceneViewError {
     }
 }
 
-fn shadows_of(s: PackShadows) -> Shadows {
+fn shadows_of(s: ShadowMode) -> Shadows {
     match s {
-        PackShadows::Off => Shadows::Off,
-        PackShadows::OnePass => Shadows::OnePass,
-        PackShadows::TwoPass => Shadows::TwoPass,
+        ShadowMode::Off => Shadows::Off,
+        ShadowMode::OnePass => Shadows::OnePass,
+        ShadowMode::TwoPass => Shadows::TwoPass,
     }
 }
 

@@ -30,7 +30,7 @@ use pocketsplat_core::qs::{
 use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 #[cfg(feature = "shadows")]
-use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
+use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::TgStream;
@@ -47,46 +47,9 @@ pub const CUTOFFS_PX: [u8; 4] = [1, 2, 4, 8];
 /// the firmware's shadowed frames are the golden images' (256² × 2 bytes = 128 KB of RAM).
 pub const SHADOW_MAP_SIZE: usize = 256;
 
-/// The shadow algorithm of a frame (the names of `pocketsplat render --shadows`). Defined here, not
-/// taken from the core, so that a build without the `shadows` feature still names its frames.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Shadows {
-    /// No shadows.
-    Off,
-    /// One-pass shadow map, children in light order (Duguet §5.3).
-    OnePass,
-    /// Shadow map from the light first, then the view.
-    TwoPass,
-}
-
-impl Shadows {
-    /// Every mode.
-    pub const ALL: [Shadows; 3] = [Shadows::Off, Shadows::OnePass, Shadows::TwoPass];
-
-    /// `off`, `one-pass` or `two-pass`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Shadows::Off => "off",
-            Shadows::OnePass => "one-pass",
-            Shadows::TwoPass => "two-pass",
-        }
-    }
-
-    /// The mode called `name`.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    #[cfg(feature = "shadows")]
-    fn core_mode(self) -> ShadowMode {
-        match self {
-            Shadows::Off => ShadowMode::Off,
-            Shadows::OnePass => ShadowMode::OnePass,
-            Shadows::TwoPass => ShadowMode::TwoPass,
-        }
-    }
-}
+/// The shadow algorithm of a frame: the core's [`ShadowMode`](pocketsplat_core::shade::ShadowMode),
+/// always compiled, so that a build without the `shadows` feature still names its frames.
+pub use pocketsplat_core::shade::ShadowMode as Shadows;
 
 /// The shadow modes this build renders: all three with the `shadows` feature, `off` without.
 #[cfg(feature = "shadows")]
@@ -741,7 +704,7 @@ enum Frame<'m, 'a> {
     TriGrid(&'m TriGrid<'a>, TgFrame),
     /// A tri-grid with shadows: the light's tables too.
     #[cfg(feature = "shadows")]
-    TriGridShadowed(&'m TriGrid<'a>, TgFrame, &'m LightFrame, ShadowMode),
+    TriGridShadowed(&'m TriGrid<'a>, TgFrame, &'m LightFrame, Shadows),
     /// A QSplat file.
     #[cfg(feature = "qsplat")]
     QSplat(&'m QSplat<'a>, QsFrame),
@@ -766,7 +729,7 @@ impl<'m, 'a> Frame<'m, 'a> {
                     #[cfg(feature = "shadows")]
                     mode => {
                         slot.set(grid.header(), &Placement::IDENTITY, light, SHADOW_MAP_SIZE);
-                        Ok(Frame::TriGridShadowed(grid, frame, slot, mode.core_mode()))
+                        Ok(Frame::TriGridShadowed(grid, frame, slot, mode))
                     }
                     #[cfg(not(feature = "shadows"))]
                     mode => {

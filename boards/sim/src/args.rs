@@ -20,6 +20,7 @@
 //! ```
 
 use anyhow::{bail, Result};
+use pocketsplat_core::shade::ShadowMode;
 
 /// Why a number on the command line was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
@@ -220,6 +221,13 @@ impl FromF64 for f32 {
     fn to_f64(&self) -> f64 {
         f64::from(*self)
     }
+}
+
+/// `--shadows`: `off`, `one-pass` or `two-pass` ([`ShadowMode::name`]), listed in `--help`.
+pub fn shadow_mode() -> impl clap::builder::TypedValueParser<Value = ShadowMode> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(ShadowMode::ALL.map(ShadowMode::name))
+        .map(|name| ShadowMode::from_name(&name).unwrap_or_default())
 }
 
 #[cfg(test)]

@@ -5,9 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use pocketsplat_core::raster::Kernel;
-use pocketsplat_core::scene::PackShadows;
+use pocketsplat_core::scene::ShadowMode;
 use pocketsplat_sim::args::{self, Ends};
-use pocketsplat_sim::render::ShadowMode;
 use pocketsplat_sim::{cmd, report, scene};
 
 #[derive(Parser)]
@@ -94,8 +93,8 @@ enum Command {
         light_pos: Option<String>,
         /// Shadows from the light: none, one-pass (light-ordered traversal) or two-pass (shadow
         /// map first). For a mesh, the reference renderer casts exact shadow rays instead.
-        #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
-        shadows: ShadowArg,
+        #[arg(long, default_value = "off", value_parser = args::shadow_mode())]
+        shadows: ShadowMode,
         /// Print one JSON object with the frame's statistics on stdout.
         #[arg(long)]
         stats_json: bool,
@@ -145,8 +144,8 @@ enum Command {
         #[arg(long, default_value = "-40,60", allow_hyphen_values = true)]
         light: String,
         /// Shadows from the light.
-        #[arg(long, value_enum, default_value_t = ShadowArg::Off)]
-        shadows: ShadowArg,
+        #[arg(long, default_value = "off", value_parser = args::shadow_mode())]
+        shadows: ShadowMode,
         /// Window pixels per framebuffer pixel: 1, 2 or 4.
         #[arg(long, default_value_t = 2, value_parser = args::int::<usize>(1, 4))]
         scale: usize,
@@ -171,13 +170,6 @@ enum Command {
         #[command(subcommand)]
         which: ReportKind,
     },
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum ShadowArg {
-    Off,
-    OnePass,
-    TwoPass,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -345,11 +337,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     KernelArg::Round => Kernel::Round,
                 },
                 light: given("--light").then_some(light),
-                shadows: given("--shadows").then_some(match shadows {
-                    ShadowArg::Off => PackShadows::Off,
-                    ShadowArg::OnePass => PackShadows::OnePass,
-                    ShadowArg::TwoPass => PackShadows::TwoPass,
-                }),
+                shadows: given("--shadows").then_some(shadows),
                 stats_json,
                 color_by_level,
             };
@@ -382,11 +370,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     KernelArg::Round => Kernel::Round,
                 },
                 light_az_el: (az, el),
-                shadows: match shadows {
-                    ShadowArg::Off => ShadowMode::Off,
-                    ShadowArg::OnePass => ShadowMode::OnePass,
-                    ShadowArg::TwoPass => ShadowMode::TwoPass,
-                },
+                shadows,
                 ..Default::default()
             };
             let settings = pocketsplat_sim::render::Settings {
@@ -435,11 +419,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     KernelArg::Round => Kernel::Round,
                 },
                 light_az_el: (az, el),
-                shadows: match shadows {
-                    ShadowArg::Off => ShadowMode::Off,
-                    ShadowArg::OnePass => ShadowMode::OnePass,
-                    ShadowArg::TwoPass => ShadowMode::TwoPass,
-                },
+                shadows,
                 color_by_level,
                 ..Default::default()
             };

@@ -91,19 +91,7 @@ impl Kind {
     }
 }
 
-/// The shadows a scene asks for (the pack's byte; present without the `shadows` feature, so that
-/// firmware built without shadows can still say what it leaves out).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PackShadows {
-    /// No shadows.
-    #[default]
-    Off,
-    /// One-pass shadow map, objects nearest the light first (Duguet §5.3 across objects).
-    OnePass,
-    /// Shadow map of every object first, then the view.
-    TwoPass,
-}
+pub use crate::shade::ShadowMode;
 
 /// Bytes a bake left out of one object because the scene does not need them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

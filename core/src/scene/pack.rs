@@ -2,7 +2,7 @@
 //! once by [`Pack::open`], whose accessors cannot panic afterwards (STYLE 5).
 
 use super::{
-    Kind, MaterialRecord, ObjectRecord, PackShadows, Savings, ALIGN_LOG2_RANGE, FLAG_CASTS,
+    Kind, MaterialRecord, ObjectRecord, Savings, ShadowMode, ALIGN_LOG2_RANGE, FLAG_CASTS,
     FLAG_GROUND, FLAG_IN_BOUNDS, HEADER_BYTES, MAGIC, MATERIAL_BYTES, MAX_MAP_SIZE, MAX_OBJECTS,
     MAX_PATH_KEYS, MAX_SLOTS, MAX_VIEWS, MIN_MAP_SIZE, NAME_BYTES, OBJECT_BYTES, PATH_BYTES,
     VERSION, VIEW_BYTES,
@@ -318,7 +318,7 @@ pub struct Pack<'a> {
     slots: u8,
     views: u8,
     keys: u16,
-    shadows: PackShadows,
+    shadows: ShadowMode,
     map_size: u16,
 }
 
@@ -370,14 +370,14 @@ impl<'a> Pack<'a> {
             return bad(22, views.into());
         }
         let shadows = match u8_at(bytes, 23) {
-            0 => PackShadows::Off,
-            1 => PackShadows::OnePass,
-            2 => PackShadows::TwoPass,
+            0 => ShadowMode::Off,
+            1 => ShadowMode::OnePass,
+            2 => ShadowMode::TwoPass,
             m => return bad(23, m.into()),
         };
         let map_size = u16_at(bytes, 24);
         let map_ok = match shadows {
-            PackShadows::Off => map_size == 0,
+            ShadowMode::Off => map_size == 0,
             _ => (MIN_MAP_SIZE..=MAX_MAP_SIZE).contains(&usize::from(map_size)),
         };
         if !map_ok {
@@ -601,7 +601,7 @@ impl<'a> Pack<'a> {
         usize::from(self.keys)
     }
     /// The shadows the scene asks for.
-    pub fn shadows(&self) -> PackShadows {
+    pub fn shadows(&self) -> ShadowMode {
         self.shadows
     }
     /// Side of the shadow map in texels (0 without shadows).

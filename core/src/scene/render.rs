@@ -28,7 +28,7 @@
 //! Setup uses floats, as every frame setup does; per splat the slot sink is integer only.
 
 use super::pack::Pack;
-use super::{Kind, ObjectRecord, PackShadows, MAX_OBJECTS, MAX_SLOTS};
+use super::{Kind, ObjectRecord, ShadowMode, MAX_OBJECTS, MAX_SLOTS};
 use crate::camera::{self, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
 use crate::normal::NORMAL_BITS;
 #[cfg(feature = "qsplat")]
@@ -36,9 +36,7 @@ use crate::qs::{render_qs, QSplat, QsError, QsFrame, QsRenderOptions};
 use crate::raster::Kernel;
 use crate::shade::{Material, ShadingTable};
 #[cfg(feature = "shadows")]
-use crate::shadow::{
-    cast_shadow_map, render_tg_in_scene, LightFrame, LightSpace, ShadowMap, ShadowMode,
-};
+use crate::shadow::{cast_shadow_map, render_tg_in_scene, LightFrame, LightSpace, ShadowMap};
 use crate::splat::{SampleSplat, SplatSink, Stats};
 use crate::tg::frame::DepthRange;
 use crate::tg::{FrameError, RenderOptions, TgError, TgFrame, TriGrid, Verify};
@@ -177,7 +175,7 @@ pub struct SceneOptions {
     /// Skip backfacing samples.
     pub backface_culling: bool,
     /// Shadows (the pack's by default). Without the `shadows` feature, frames have none.
-    pub shadows: PackShadows,
+    pub shadows: ShadowMode,
     /// Unit direction towards the light, world (the pack's by default).
     pub light_dir: Vec3,
     /// Shadow map side, texels (the pack's by default; 256 when the pack has no shadows).
@@ -212,7 +210,7 @@ pub struct SceneStats {
     /// Nodes visited filling the shadow map before the view (two-pass).
     pub shadow_fill_nodes: u32,
     /// The shadows actually drawn (`Off` when the build has no `shadows` feature).
-    pub shadows: PackShadows,
+    pub shadows: ShadowMode,
 }
 
 /// Placed bounding box of a model-space box: the box around its eight placed corners.
@@ -498,7 +496,7 @@ pub fn render_scene<S: SplatSink>(
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
     #[cfg(feature = "shadows")]
-    if opts.shadows != PackShadows::Off {
+    if opts.shadows != ShadowMode::Off {
         let mut light = LightFrame::UNSET;
         return render_shadowed(scene, camera, opts, shadow_depths, &mut light, sink);
     }
@@ -521,7 +519,7 @@ pub fn render_scene_in<S: SplatSink>(
     light: &mut LightFrame,
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    if opts.shadows == PackShadows::Off {
+    if opts.shadows == ShadowMode::Off {
         return render_unshadowed(scene, camera, opts, sink);
     }
     render_shadowed(scene, camera, opts, shadow_depths, light, sink)
@@ -585,7 +583,7 @@ fn render_shadowed<S: SplatSink>(
     map.clear();
     let space = scene.light_space(opts.light_dir, side);
     let order = scene.light_order(&space);
-    let two_pass = opts.shadows == PackShadows::TwoPass;
+    let two_pass = opts.shadows == ShadowMode::TwoPass;
     if two_pass {
         for i in 0..n {
             let Some(rec) = scene.pack.object(i).filter(|r| r.casts_shadows) else {
@@ -756,9 +754,9 @@ pub fn shading_table_bytes(slots: usize) -> usize {
 /// The RAM a frame of `pack` needs with `shadows` (usually the pack's; `Off` when the build leaves
 /// shadows out) and a shadow map of `map_size`² texels, its shading table holding exactly the
 /// pack's slots (a build with a larger table pays for it).
-pub fn ram_budget(pack: &Pack<'_>, shadows: PackShadows, map_size: usize) -> RamBudget {
+pub fn ram_budget(pack: &Pack<'_>, shadows: ShadowMode, map_size: usize) -> RamBudget {
     let side = map_size;
-    let shadowed = shadows != PackShadows::Off && cfg!(feature = "shadows");
+    let shadowed = shadows != ShadowMode::Off && cfg!(feature = "shadows");
     #[cfg(feature = "shadows")]
     let light = if shadowed {
         core::mem::size_of::<LightFrame>()
@@ -819,7 +817,7 @@ mod tests {
             views: std::vec![],
             path: std::vec![],
             light_az_el: (0.0, 45.0),
-            shadows: PackShadows::Off,
+            shadows: ShadowMode::Off,
             shadow_map_size: 0,
             fov_deg: 45.0,
             min_cell_px: 0.0,

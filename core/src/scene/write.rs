@@ -4,7 +4,7 @@ use std::string::String;
 use std::vec::Vec;
 
 use super::{
-    PackShadows, Savings, ALIGN_LOG2_RANGE, FLAG_CASTS, FLAG_GROUND, FLAG_IN_BOUNDS, HEADER_BYTES,
+    Savings, ShadowMode, ALIGN_LOG2_RANGE, FLAG_CASTS, FLAG_GROUND, FLAG_IN_BOUNDS, HEADER_BYTES,
     MAGIC, MATERIAL_BYTES, MAX_MAP_SIZE, MAX_OBJECTS, MAX_PATH_KEYS, MAX_SLOTS, MAX_VIEWS,
     MIN_MAP_SIZE, NAME_BYTES, OBJECT_BYTES, PATH_BYTES, VERSION, VIEW_BYTES,
 };
@@ -53,7 +53,7 @@ pub struct PackContents {
     /// Light azimuth and elevation, degrees.
     pub light_az_el: (f64, f64),
     /// Shadows.
-    pub shadows: PackShadows,
+    pub shadows: ShadowMode,
     /// Shadow map side (ignored without shadows).
     pub shadow_map_size: usize,
     /// Vertical field of view, degrees.
@@ -148,7 +148,7 @@ pub fn write_pack(c: &PackContents) -> Result<Vec<u8>, PackWriteError> {
         count("materials of one object", o.slots.len(), 1, MAX_SLOTS)?;
     }
     let map_size = match c.shadows {
-        PackShadows::Off => 0,
+        ShadowMode::Off => 0,
         _ if (MIN_MAP_SIZE..=MAX_MAP_SIZE).contains(&c.shadow_map_size) => c.shadow_map_size,
         _ => return Err(PackWriteError::MapSize(c.shadow_map_size)),
     };
@@ -182,9 +182,9 @@ pub fn write_pack(c: &PackContents) -> Result<Vec<u8>, PackWriteError> {
     h[21] = slots as u8;
     h[22] = views as u8;
     h[23] = match c.shadows {
-        PackShadows::Off => 0,
-        PackShadows::OnePass => 1,
-        PackShadows::TwoPass => 2,
+        ShadowMode::Off => 0,
+        ShadowMode::OnePass => 1,
+        ShadowMode::TwoPass => 2,
     };
     h[24..26].copy_from_slice(&(map_size as u16).to_le_bytes());
     h[26..28].copy_from_slice(&(keys as u16).to_le_bytes());

@@ -25,7 +25,7 @@ use pocketsplat_core::bake::{bake_grid, BakeOptions, BakedGrid, TriMesh};
 use pocketsplat_core::camera::{Camera, Placement, Sphere, Vec3, View, HEIGHT, WIDTH};
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
-use pocketsplat_core::scene::{Kind, Pack, PackShadows, Savings, Scene as CoreScene, MAX_SLOTS};
+use pocketsplat_core::scene::{Kind, Pack, Savings, Scene as CoreScene, MAX_SLOTS};
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
@@ -608,7 +608,7 @@ pub fn bake_loaded(
             .map(|p| (p.t, View::new(p.az, p.el, p.dist)))
             .collect(),
         light_az_el: (f.light.az, f.light.el),
-        shadows: PackShadows::from(f.shadows.mode),
+        shadows: f.shadows.mode,
         shadow_map_size: f.shadows.map_size,
         fov_deg: f.fov,
         min_cell_px: if cameras.is_empty() { 0.0 } else { min_cell_px },

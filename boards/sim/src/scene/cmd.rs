@@ -8,7 +8,7 @@ use anyhow::{anyhow, Result};
 use pocketsplat_core::camera::View;
 use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::{Framebuffer, Kernel};
-use pocketsplat_core::scene::{ram_budget, Pack, PackShadows, Scene};
+use pocketsplat_core::scene::{ram_budget, Pack, Scene, ShadowMode};
 use pocketsplat_core::tg::Verify;
 use serde_json::json;
 
@@ -117,7 +117,7 @@ pub struct RenderArgs {
     /// Light `AZ,EL`.
     pub light: Option<String>,
     /// Shadows.
-    pub shadows: Option<PackShadows>,
+    pub shadows: Option<ShadowMode>,
     /// Print one JSON object of statistics.
     pub stats_json: bool,
     /// Tint splats by their levels above full detail, with a key.
@@ -149,11 +149,11 @@ pub fn parse_pack_view(pack: &Pack<'_>, text: &str) -> Result<View> {
     })
 }
 
-fn shadows_name(s: PackShadows) -> &'static str {
+fn shadows_name(s: ShadowMode) -> &'static str {
     match s {
-        PackShadows::Off => "off",
-        PackShadows::OnePass => "one-pass",
-        PackShadows::TwoPass => "two-pass",
+        ShadowMode::Off => "off",
+        ShadowMode::OnePass => "one-pass",
+        ShadowMode::TwoPass => "two-pass",
     }
 }
 

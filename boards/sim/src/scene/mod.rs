@@ -76,7 +76,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use pocketsplat_core::camera::View;
-use pocketsplat_core::scene::{PackShadows, MAX_OBJECTS, MAX_SLOTS, NAME_BYTES};
+use pocketsplat_core::scene::{ShadowMode, MAX_OBJECTS, MAX_SLOTS, NAME_BYTES};
 use pocketsplat_core::shade::Material;
 use serde::Deserialize;
 
@@ -137,8 +137,8 @@ impl Default for LightSpec {
 #[serde(deny_unknown_fields)]
 pub struct ShadowSpec {
     /// off, one-pass or two-pass.
-    #[serde(default)]
-    pub mode: ShadowName,
+    #[serde(default, deserialize_with = "shadow_mode")]
+    pub mode: ShadowMode,
     /// Shadow map side, texels.
     #[serde(default = "default_map_size")]
     pub map_size: usize,
@@ -147,7 +147,7 @@ pub struct ShadowSpec {
 impl Default for ShadowSpec {
     fn default() -> Self {
         Self {
-            mode: ShadowName::Off,
+            mode: ShadowMode::Off,
             map_size: default_map_size(),
         }
     }
@@ -157,27 +157,14 @@ fn default_map_size() -> usize {
     crate::render::DEFAULT_SHADOW_MAP_SIZE
 }
 
-/// A shadow mode's name in a scene file.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ShadowName {
-    /// No shadows.
-    #[default]
-    Off,
-    /// One pass.
-    OnePass,
-    /// Two passes.
-    TwoPass,
-}
-
-impl From<ShadowName> for PackShadows {
-    fn from(s: ShadowName) -> Self {
-        match s {
-            ShadowName::Off => PackShadows::Off,
-            ShadowName::OnePass => PackShadows::OnePass,
-            ShadowName::TwoPass => PackShadows::TwoPass,
-        }
-    }
+/// A shadow mode by its name in a scene file (`off`, `one-pass`, `two-pass`: [`ShadowMode::name`]).
+fn shadow_mode<'de, D: serde::Deserializer<'de>>(d: D) -> Result<ShadowMode, D::Error> {
+    let name = String::deserialize(d)?;
+    ShadowMode::from_name(&name).ok_or_else(|| {
+        serde::de::Error::custom(format!(
+            "unknown shadow mode `{name}`, expected `off`, `one-pass` or `two-pass`"
+        ))
+    })
 }
 
 /// `[bake]`.
@@ -477,7 +464,7 @@ impl Scene {
             bail!(at("light: az and el must be finite".into()));
         }
         let s = file.shadows;
-        if s.mode != ShadowName::Off
+        if s.mode != ShadowMode::Off
             && !(pocketsplat_core::scene::MIN_MAP_SIZE..=pocketsplat_core::scene::MAX_MAP_SIZE)
                 .contains(&s.map_size)
         {

@@ -7,7 +7,7 @@ use pocketsplat_core::camera::{Camera, View};
 use pocketsplat_core::crc::crc32;
 use pocketsplat_core::qs::write::{bake_qs, QsBakeOptions};
 use pocketsplat_core::qs::QSplat;
-use pocketsplat_core::scene::{Kind, Pack, PackError, PackShadows, Scene, SceneError};
+use pocketsplat_core::scene::{Kind, Pack, PackError, Scene, SceneError, ShadowMode};
 use pocketsplat_core::tg::Verify;
 
 use super::bake::bake_path;
@@ -47,7 +47,7 @@ color = [0.9, 0.2, 0.1]
 color = [0.1, 0.8, 0.2]
 "#;
 
-fn render(scene: &Scene<'_>, camera: &Camera, shadows: PackShadows, out: &mut FrameBuffers) {
+fn render(scene: &Scene<'_>, camera: &Camera, shadows: ShadowMode, out: &mut FrameBuffers) {
     let mut opts = PackSettings::new(View::new(0.0, 0.0, 1.0)).options(scene);
     opts.shadows = shadows;
     let mut table = scene_table();
@@ -73,7 +73,7 @@ fn a_scene_qs_object_draws_what_the_qsplat_renderer_draws() {
     let file = *scene.qsplat(0).expect("a QSplat object");
     let cam = scene.camera(view);
     let mut a = FrameBuffers::new();
-    render(&scene, &cam, PackShadows::Off, &mut a);
+    render(&scene, &cam, ShadowMode::Off, &mut a);
 
     let settings = Settings {
         view,

@@ -9,13 +9,13 @@ use anyhow::{anyhow, bail, Result};
 use pocketsplat_core::camera::{self, Camera, Sphere, View};
 use pocketsplat_core::raster::{Framebuffer, Kernel};
 use pocketsplat_core::scene::{
-    ram_budget, render_scene, PackShadows, RamBudget, Scene, SceneOptions, SceneStats, MAX_SLOTS,
+    ram_budget, render_scene, RamBudget, Scene, SceneOptions, SceneStats, ShadowMode, MAX_SLOTS,
 };
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
 
 use crate::levels::Levels;
-use crate::render::{FrameBuffers, FrameReport, Settings, ShadowMode};
+use crate::render::{FrameBuffers, FrameReport, Settings};
 
 /// The shading table the simulator uses for every scene (8 slots, the most a pack has).
 pub type SceneTable = ShadingTable<MAX_SLOTS>;
@@ -56,7 +56,7 @@ pub struct PackSettings {
     /// Splat kernel.
     pub kernel: Kernel,
     /// Shadows (`None`: the pack's).
-    pub shadows: Option<PackShadows>,
+    pub shadows: Option<ShadowMode>,
     /// Light azimuth and elevation, degrees (`None`: the pack's).
     pub light_az_el: Option<(f64, f64)>,
     /// Vertical field of view, degrees (`None`: the pack's).
@@ -96,9 +96,9 @@ impl PackSettings {
             cutoff_px: s.cutoff_px,
             kernel: s.kernel,
             shadows: Some(match s.shadows {
-                ShadowMode::Off => PackShadows::Off,
-                ShadowMode::OnePass => PackShadows::OnePass,
-                ShadowMode::TwoPass => PackShadows::TwoPass,
+                ShadowMode::Off => ShadowMode::Off,
+                ShadowMode::OnePass => ShadowMode::OnePass,
+                ShadowMode::TwoPass => ShadowMode::TwoPass,
             }),
             light_az_el: Some(s.light_az_el),
             fov_deg: Some(s.fov_deg),
@@ -157,7 +157,7 @@ pub fn render_pack_from(
     let t = Instant::now();
     scene.update_table(table, camera, opts.light_dir)?;
     let side = opts.shadow_map_size;
-    if opts.shadows != PackShadows::Off && out.shadow.len() < side * side {
+    if opts.shadows != ShadowMode::Off && out.shadow.len() < side * side {
         out.shadow.resize(side * side, u16::MAX);
     }
     let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);

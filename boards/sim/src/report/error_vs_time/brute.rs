@@ -666,7 +666,7 @@ anchor = "center"
     #[test]
     fn matches_the_scene_renderer_drawing_all_leaves() {
         use crate::scene::render::{render_pack, scene_table, PackSettings};
-        use pocketsplat_core::scene::PackShadows;
+        use pocketsplat_core::scene::ShadowMode;
 
         let bytes = small_pack();
         let scene = open_scene(&bytes);
@@ -678,7 +678,7 @@ anchor = "center"
             let settings = PackSettings {
                 cutoff_px: 0.01,
                 kernel,
-                shadows: Some(PackShadows::Off),
+                shadows: Some(ShadowMode::Off),
                 ..PackSettings::new(camera::View::new(30.0, 25.0, 2.2))
             };
             let mut real = FrameBuffers::new();

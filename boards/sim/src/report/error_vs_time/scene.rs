@@ -10,7 +10,7 @@
 use anyhow::{anyhow, Context, Result};
 use pocketsplat_core::bake::TriMesh;
 use pocketsplat_core::camera::{Camera, View};
-use pocketsplat_core::scene::{Pack, PackShadows, Scene as PackScene, SceneOptions};
+use pocketsplat_core::scene::{Pack, Scene as PackScene, SceneOptions, ShadowMode};
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::Verify;
 
@@ -18,7 +18,7 @@ use super::brute::SceneCloud;
 use super::{FrameConfig, Method, RefShadows, Reference, Subject};
 use crate::bvh::Bvh;
 use crate::reference::{render_reference_shadowed, ShadowLight, ShadowRays};
-use crate::render::{FrameBuffers, FrameReport, ShadowMode};
+use crate::render::{FrameBuffers, FrameReport};
 use crate::scene::bake::{bake_loaded, load_objects, world_mesh, BakeOverrides, BakedScene};
 use crate::scene::render::{render_pack_from, scene_table, PackSettings, SceneTable};
 use crate::scene::Scene;
@@ -74,23 +74,6 @@ impl SceneBakes {
     }
 }
 
-/// The shadow mode of the report for a pack's.
-pub fn shadow_mode(s: PackShadows) -> ShadowMode {
-    match s {
-        PackShadows::Off => ShadowMode::Off,
-        PackShadows::OnePass => ShadowMode::OnePass,
-        PackShadows::TwoPass => ShadowMode::TwoPass,
-    }
-}
-
-fn pack_shadows(s: ShadowMode) -> PackShadows {
-    match s {
-        ShadowMode::Off => PackShadows::Off,
-        ShadowMode::OnePass => PackShadows::OnePass,
-        ShadowMode::TwoPass => PackShadows::TwoPass,
-    }
-}
-
 /// A pack drawn by the core's scene renderer (the firmware's), with a shading table kept across
 /// frames.
 pub struct PackMethod<'a> {
@@ -128,7 +111,7 @@ fn frame(scene: &PackScene<'_>, view: View, cfg: &FrameConfig) -> (Camera, Scene
     let s = PackSettings {
         cutoff_px: cfg.cutoff_px,
         kernel: cfg.kernel,
-        shadows: Some(pack_shadows(cfg.shadows)),
+        shadows: Some(cfg.shadows),
         ..PackSettings::new(view)
     };
     (s.camera(scene, [0.0; 3]), s.options(scene))
@@ -244,7 +227,7 @@ pub fn scene_subject<'a>(name: &str, bakes: &'a SceneBakes) -> Result<Subject<'a
     // The reference sees what the pack's frames see: its sphere, field of view and light.
     let frame = PackSettings::new(View::new(0.0, 0.0, 1.0));
     let light = SceneOptions::of(trigrid.scene().pack()).light_dir;
-    let shadows = shadow_mode(trigrid.scene().pack().shadows());
+    let shadows = trigrid.scene().pack().shadows();
     let views: Vec<(String, View)> = bakes.views.clone();
     // The camera needs the open scene; keep one for the reference closure.
     let scene = trigrid.scene().clone();
