@@ -2,8 +2,11 @@
 //! every row the sweep promises and no other, numbers in their ranges, plots that decode and show
 //! curves, and no output at all when the input is bad.
 
+mod common;
+use common::{model, models_dir};
+
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 use pocketsplat_sim::image::decode_rgb8_png;
@@ -15,28 +18,6 @@ fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
         .current_dir(cwd)
         .output()
         .expect("pocketsplat runs")
-}
-
-fn models_dir() -> PathBuf {
-    std::env::var_os("POCKETSPLAT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models"))
-}
-
-/// The model's path, or `None` (with a note) when it is missing outside CI; in CI a missing model
-/// fails.
-fn model(name: &str) -> Option<PathBuf> {
-    let path = models_dir().join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    assert!(
-        std::env::var("CI").as_deref() != Ok("true"),
-        "model {} is missing and CI=true: model tests must not skip",
-        path.display()
-    );
-    eprintln!("note: {} not found; test skipped", path.display());
-    None
 }
 
 /// A CSV line split on commas outside double quotes.

@@ -1,6 +1,9 @@
 //! PLY import: small files written here in every encoding (exact values), every error case (variant
 //! and message), the Stanford scans in `shared/models`, and no panics on damaged input.
 
+mod common;
+use common::model;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -796,31 +799,6 @@ fn damaged_files_never_panic() {
 
 // ---------------------------------------------------------------------------------------------
 // The Stanford scans
-
-fn models_dir() -> PathBuf {
-    std::env::var_os("POCKETSPLAT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models"))
-}
-
-/// The model's path, or `None` (with a note) when it is missing outside CI; in CI a missing model fails.
-fn model(name: &str) -> Option<PathBuf> {
-    let path = models_dir().join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    if std::env::var("CI").as_deref() == Ok("true") {
-        panic!(
-            "model {} is missing (set POCKETSPLAT_MODELS)",
-            path.display()
-        );
-    }
-    eprintln!(
-        "note: model {} is missing; skipping (set POCKETSPLAT_MODELS)",
-        path.display()
-    );
-    None
-}
 
 fn check_model(name: &str, vertices: usize, faces: usize) {
     let Some(path) = model(name) else { return };

@@ -2,7 +2,8 @@
 //! independent computations: point-in-triangle tests, the analytic disc of a sphere, ray casts, and
 //! closed-form PSNR values.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::model;
 
 use pocketsplat_core::bake::TriMesh;
 use pocketsplat_core::camera::{self, standard_view, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
@@ -949,31 +950,6 @@ fn reading_grey_and_alpha_pngs_gives_rgb() {
         let img = image::decode_rgb8_png(&bytes).unwrap();
         assert_eq!(img.pixels, want, "{color:?}");
     }
-}
-
-fn models_dir() -> PathBuf {
-    std::env::var_os("POCKETSPLAT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models"))
-}
-
-/// The model's path, or `None` (with a note) when it is missing outside CI; in CI a missing model
-/// fails.
-fn model(name: &str) -> Option<PathBuf> {
-    let path = models_dir().join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    assert!(
-        std::env::var("CI").as_deref() != Ok("true"),
-        "model {} is missing (set POCKETSPLAT_MODELS)",
-        path.display()
-    );
-    eprintln!(
-        "note: model {} is missing; skipping (set POCKETSPLAT_MODELS)",
-        path.display()
-    );
-    None
 }
 
 #[test]
