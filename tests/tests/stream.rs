@@ -621,6 +621,33 @@ fn hostile_masks_with_valid_crcs_are_absent_not_a_panic() {
     }
 }
 
+/// A root with fewer children than level 1 holds (one bit of its mask cleared), at depth 4 and at
+/// depth 1, where no group pointer or deeper mask could show it: the root's block is malformed.
+#[test]
+fn a_root_mask_short_of_the_level_below_is_malformed() {
+    use hostile::*;
+    for depth in [1u8, 4] {
+        let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
+        let base =
+            pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth }, 12, false)
+                .unwrap()
+                .1;
+        TriGrid::open(&base, Verify::Full).unwrap();
+        stream(&base, &mut MemSource::new(&base)).expect("the clean file converges");
+        let mut b = base.clone();
+        let at = elem(&b, 0, 3, 0);
+        let m = u32_at(&b, at);
+        put_u32(&mut b, at, m & (m - 1));
+        seal(&mut b);
+        rejected(
+            &format!("depth {depth}, root mask one child short"),
+            &b,
+            &base,
+            &["malformed"],
+        );
+    }
+}
+
 #[test]
 fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound() {
     use hostile::*;

@@ -604,15 +604,19 @@ fn spare_free(h: &Header) -> u32 {
 
 /// Whether a stored mask word is one the format allows at a level below the depth: at least one
 /// child, no bit at or above [`spare_free`].
-fn mask_word_ok(h: &Header, word: u128) -> bool {
+/// The child-slot bits of a mask word (the ρ³ low bits; cone classes above them are not children).
+fn slot_bits(h: &Header, word: u128) -> u128 {
     let cells = u32::from(h.rho).pow(3);
-    let slots = if cells < 128 {
+    if cells < 128 {
         word & ((1u128 << cells) - 1)
     } else {
         word
-    };
+    }
+}
+
+fn mask_word_ok(h: &Header, word: u128) -> bool {
     let free = spare_free(h);
-    slots != 0 && (free >= 128 || word >> free == 0)
+    slot_bits(h, word) != 0 && (free >= 128 || word >> free == 0)
 }
 
 /// Checks the level counts of a header against each other, before anything is sized by them: every
@@ -688,8 +692,14 @@ pub fn check_block(
                 .get(k..k + mb as usize)
                 .ok_or(TgError::BadMask { level: l, index: i })?;
             word[..mb as usize].copy_from_slice(src);
-            if !mask_word_ok(h, u128::from_le_bytes(word)) {
+            let word = u128::from_le_bytes(word);
+            if !mask_word_ok(h, word) {
                 return Err(TgError::BadMask { level: l, index: i });
+            }
+            // The root is level 0's one cell: its children are the whole of level 1 (the one
+            // popcount a block alone can check; the resident reader checks them all).
+            if l == 0 && slot_bits(h, word).count_ones() != levels[1].count {
+                return Err(TgError::BadMask { level: 0, index: 0 });
             }
         }
     }
