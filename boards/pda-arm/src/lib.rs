@@ -41,7 +41,7 @@ pub use views::{
     QSPLAT_MAGIC_PREFIX, SHADOW_MAP_SIZE, SHADOW_MODES,
 };
 #[cfg(feature = "stream")]
-pub use views::{render_stream_pass, render_stream_view};
+pub use views::{render_stream_pass, render_stream_view, StreamTargets};
 
 use pocketsplat_core::crc::Crc32;
 

@@ -361,18 +361,24 @@ pub const MARKER_PX: u32 = 8;
 /// Red, RGB565.
 pub const MARKER_COLOR: u16 = 0xF800;
 
-/// The read-error marker: a red square in the top right corner, over the frame.
-pub fn draw_error_marker(fb: &mut pocketsplat_core::raster::Framebuffer<'_>) {
+/// The read-error marker: a red square in the top right corner, over the frame (a framebuffer, or a
+/// panel that shows a frame drawn earlier).
+///
+/// # Errors
+/// The target's (a [`Framebuffer`](pocketsplat_core::raster::Framebuffer)'s drawing cannot fail).
+pub fn draw_error_marker<D>(target: &mut D) -> Result<(), D::Error>
+where
+    D: embedded_graphics::draw_target::DrawTarget<Color = embedded_graphics::pixelcolor::Rgb565>,
+{
     use embedded_graphics::pixelcolor::{raw::RawU16, Rgb565};
     use embedded_graphics::prelude::*;
     use embedded_graphics::primitives::{PrimitiveStyle, Rectangle};
     let side = MARKER_PX;
     let at = Point::new((WIDTH as u32 - side - 2) as i32, 2);
     let red = Rgb565::from(RawU16::new(MARKER_COLOR));
-    // The framebuffer's drawing cannot fail (`Infallible`).
-    let _ = Rectangle::new(at, Size::new(side, side))
+    Rectangle::new(at, Size::new(side, side))
         .into_styled(PrimitiveStyle::with_fill(red))
-        .draw(fb);
+        .draw(target)
 }
 
 /// Opens the `.tg` on `src` over `mem` and draws the sequence into `targets`, handing each frame's
@@ -401,9 +407,16 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         let cutoff = f32::from(leg.cutoff_px());
         let view = orbit_view(az_deg);
         let drawn: Drawn = if leg.passes() {
-            render_stream_pass(stream, view, cutoff, targets, index == 0, &mut mark)
+            render_stream_pass(
+                stream,
+                view,
+                cutoff,
+                &mut targets.streamed(),
+                index == 0,
+                &mut mark,
+            )
         } else {
-            render_stream_view(stream, view, cutoff, targets, &mut mark)
+            render_stream_view(stream, view, cutoff, &mut targets.streamed(), &mut mark)
         }
         .map_err(StreamRunError::View)?;
         // A read that failed since the last frame (the card erred, or was pulled): the frame is
@@ -421,7 +434,8 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
         // A refined frame's buffers carry over between its passes: the marker is not painted into
         // them (the line still says it), or it would stay in the frame.
         if marker && !leg.passes() {
-            draw_error_marker(&mut fb);
+            // The framebuffer's drawing cannot fail (`Infallible`).
+            let _ = draw_error_marker(&mut fb);
         }
         let crc = fb.crc();
         // A pass before the last is not a whole frame: it misses at least its resume point.
@@ -545,7 +559,7 @@ mod tests {
             (&mut depth[..]).try_into().unwrap(),
         );
         let mut fb = pocketsplat_core::raster::Framebuffer::new(c, d);
-        draw_error_marker(&mut fb);
+        draw_error_marker(&mut fb).unwrap();
         let side = MARKER_PX as usize;
         for (y, row) in color.iter().enumerate() {
             for (x, &p) in row.iter().enumerate() {

@@ -147,6 +147,31 @@ pub struct Targets<'a> {
     pub light: &'a mut LightFrame,
 }
 
+/// Where a streamed frame is drawn ([`render_stream_view`], [`render_stream_pass`]): colour and
+/// depth rows and the shading table, without the shadow map (the streamed traversal takes no light
+/// pass). The same fields whatever this crate's features, so that a board crate can build it.
+#[cfg(feature = "stream")]
+pub struct StreamTargets<'a> {
+    /// RGB565 rows.
+    pub color: &'a mut [[u16; WIDTH]; HEIGHT],
+    /// Depth rows.
+    pub depth: &'a mut [[u16; WIDTH]; HEIGHT],
+    /// The shading table, kept between frames.
+    pub table: &'a mut ShadingTable<1>,
+}
+
+#[cfg(feature = "stream")]
+impl Targets<'_> {
+    /// The buffers a streamed frame draws into, borrowed from these.
+    pub fn streamed(&mut self) -> StreamTargets<'_> {
+        StreamTargets {
+            color: self.color,
+            depth: self.depth,
+            table: self.table,
+        }
+    }
+}
+
 /// Where [`Frame::new`] puts the light's tables: [`Targets::light`], or nothing without shadows.
 #[cfg(feature = "shadows")]
 type LightSlot<'s> = &'s mut LightFrame;
@@ -555,7 +580,7 @@ pub fn render_stream_view(
     stream: &mut TgStream<'_>,
     view: View,
     cutoff_px: f32,
-    targets: &mut Targets<'_>,
+    targets: &mut StreamTargets<'_>,
     mut mark: impl FnMut(Phase),
 ) -> Result<Drawn, ViewError> {
     mark(Phase::Setup);
@@ -585,7 +610,7 @@ pub fn render_stream_pass(
     stream: &mut TgStream<'_>,
     view: View,
     cutoff_px: f32,
-    targets: &mut Targets<'_>,
+    targets: &mut StreamTargets<'_>,
     first: bool,
     mut mark: impl FnMut(Phase),
 ) -> Result<Drawn, ViewError> {

@@ -1,19 +1,29 @@
 //! # pocketsplat-handheld
 //!
-//! pocketsplat on a real handheld: a 240×320 RGB565 SPI panel (ST7789, through mipidsi), an SD card
-//! on the same SPI bus (through embedded-sdmmc), six buttons that move an orbit camera, and defmt
-//! logging. Everything here is generic over embedded-hal 1.0 (`SpiDevice`, `OutputPin`, `InputPin`,
-//! `DelayNs`), so a board is a pin binding: `src/bin/pico2-restouch.rs` binds it to a Raspberry Pi
-//! Pico 2 with a Waveshare Pico-ResTouch-LCD-2.8 (wiring in `../README.md`).
+//! pocketsplat on a real handheld: a 240×320 RGB565 panel, an SD card, six buttons that move an
+//! orbit camera, and (feature `defmt`) defmt logging. The viewer is generic over an embedded-sdmmc
+//! [`BlockDevice`] (the card) and an embedded-graphics [`DrawTarget`] (the panel), so that the same
+//! loop runs on the board and in a host test against a FAT image and a recording display; a board
+//! is a pin binding: `src/bin/pico2-restouch.rs` binds it to a Raspberry Pi Pico 2 with a Waveshare
+//! Pico-ResTouch-LCD-2.8 (an ST7789 through mipidsi, [`init_panel`]; wiring in `../README.md`).
 //!
-//! The frame is the QEMU firmware's ([`pocketsplat_pda::render_view`]: same camera, shading and
-//! traversal), drawn into statics and sent to the panel in one window write. While a button is held
-//! the cutoff follows a [`FrameRateController`]; when nothing moves it refines step by step down to
-//! 1 px (QSplat §4.2), then the loop idles until a button is pressed.
+//! The model is `MODEL.TG` in the card's root, of any size: it is never read whole but streamed
+//! through a 64 KB block cache ([`TgStream`], the QEMU firmware's `stream` build,
+//! `pocketsplat_pda::stream`), or else a model linked into flash, streamed the same way. The frame
+//! is the QEMU firmware's (same camera, shading and traversal:
+//! [`pocketsplat_pda::render_stream_view`]). One [`Viewer::step`] is one turn of the loop:
 //!
-//! The model comes from `MODEL.TG` in the SD card's root, read into a RAM arena when it fits
-//! ([`load_model`]), or else from flash (a model linked in at build time); with neither, the screen
-//! says what to do.
+//! - while a button is held, a whole frame at the cutoff a [`FrameRateController`] picks, drawn from
+//!   what is resident (coarser where blocks are absent), then up to [`IO_BUDGET_BYTES`] read;
+//! - when nothing is held, the same frame again until it misses nothing, then finer ones (√2 a step,
+//!   QSplat §4.2) while they fit the cache whole; the first that does not is drawn at 1 px in passes
+//!   ([`pocketsplat_pda::render_stream_pass`]) off screen, the panel keeping the last frame, and
+//!   shown when complete: exactly the frame the resident file gives;
+//! - then nothing, until a button is pressed ([`StepOutcome::Idle`]).
+//!
+//! A read that fails (a card that errs or is pulled) leaves its block absent: frames go on from
+//! what is resident, with the red read-error marker in the top right corner
+//! ([`pocketsplat_pda::stream::draw_error_marker`]), and a refinement that cannot finish ends there.
 #![no_std]
 #![deny(clippy::float_arithmetic)]
 
@@ -22,20 +32,32 @@ use core::fmt::Write as _;
 use embedded_graphics::mono_font::{ascii::FONT_6X10, MonoTextStyle};
 use embedded_graphics::pixelcolor::{raw::RawU16, Rgb565};
 use embedded_graphics::prelude::*;
+use embedded_graphics::primitives::Rectangle;
 use embedded_graphics::text::Text;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal::spi::SpiDevice;
-use embedded_sdmmc::{Mode, SdCard, TimeSource, Timestamp, VolumeIdx, VolumeManager};
+use embedded_sdmmc::{BlockDevice, Mode, RawFile, VolumeIdx, VolumeManager};
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
 use pocketsplat_core::camera::{View, HEIGHT, STANDARD_VIEWS, WIDTH};
-use pocketsplat_core::lod::FrameRateController;
+use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
-use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{render_view, Model, Shadows, Targets};
+use pocketsplat_core::stream::sdmmc::SdFile;
+use pocketsplat_core::stream::{
+    BlockEntry, ChunkSource, MemSource, OutOfRange, SlotEntry, StreamError, TgStream,
+};
+use pocketsplat_pda::stream::{
+    draw_error_marker, CACHE_SLOTS, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES,
+    MAX_PASSES, REFINE_IO_BUDGET_BYTES,
+};
+use pocketsplat_pda::{render_stream_pass, render_stream_view};
+
+pub use pocketsplat_core::stream::sdmmc::NoClock;
+/// Bytes of block cache, the QEMU firmware's (64 KB).
+pub use pocketsplat_pda::stream::CACHE_BYTES;
+pub use pocketsplat_pda::StreamTargets;
 
 /// Name of the model file in the SD card's root directory (8.3).
 pub const MODEL_FILE: &str = "MODEL.TG";
@@ -43,9 +65,40 @@ pub const MODEL_FILE: &str = "MODEL.TG";
 pub const TARGET_FRAME_US: u32 = 200_000;
 /// Cutoff of the first frame, pixels.
 pub const FIRST_CUTOFF_PX: f32 = 4.0;
+/// Blocks a streamed file may have (one [`BlockEntry`] each, 16 bytes: 64 KB of RAM): 16 MB in
+/// 4 KB blocks, twice what the QEMU firmware allows, so that a depth-6 dragon fits too.
+pub const MAX_FILE_BLOCKS: usize = 4096;
+
+/// Logs with defmt when the `defmt` feature is on; otherwise nothing (the arguments are still
+/// evaluated by reference, so that nothing is unused).
+macro_rules! log {
+    ($level:ident, $fmt:literal $(, $arg:expr)* $(,)?) => {{
+        #[cfg(feature = "defmt")]
+        defmt::$level!($fmt $(, $arg)*);
+        #[cfg(not(feature = "defmt"))]
+        {
+            $(let _ = &$arg;)*
+        }
+    }};
+}
+
+/// A value shown through its `Display` in a log line.
+#[cfg(feature = "defmt")]
+macro_rules! shown {
+    ($e:expr) => {
+        defmt::Display2Format(&$e)
+    };
+}
+#[cfg(not(feature = "defmt"))]
+macro_rules! shown {
+    ($e:expr) => {
+        $e
+    };
+}
 
 /// The camera buttons, in the order [`Buttons::pins`] holds them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Button {
     /// Orbit left (azimuth −).
     Left,
@@ -71,6 +124,11 @@ impl Button {
         Button::ZoomIn,
         Button::ZoomOut,
     ];
+
+    /// `held` with only this button down.
+    pub fn alone(self) -> [bool; 6] {
+        Button::ALL.map(|b| b == self)
+    }
 }
 
 /// Six active-low buttons (to ground, with pull-ups), in [`Button::ALL`] order.
@@ -135,84 +193,573 @@ impl Orbit {
     }
 }
 
-/// A fixed timestamp for the FAT layer: the app only reads files.
-pub struct NoClock;
+/// The card's file system: one volume, one directory and one file open at a time (the viewer
+/// opens the root and [`MODEL_FILE`], and keeps them open).
+pub type Volumes<D> = VolumeManager<D, NoClock, 1, 1, 1>;
 
-impl TimeSource for NoClock {
-    fn get_timestamp(&self) -> Timestamp {
-        Timestamp {
-            year_since_1970: 56,
-            zero_indexed_month: 0,
-            zero_indexed_day: 0,
-            hours: 0,
-            minutes: 0,
-            seconds: 0,
+/// The file system on `card` (nothing is read yet).
+pub fn volumes<D: BlockDevice>(card: D) -> Volumes<D> {
+    VolumeManager::new_with_limits(card, NoClock, 0)
+}
+
+/// [`MODEL_FILE`] on a card, as a stream's source.
+pub type CardFile<'v, D> = SdFile<'v, D, NoClock, 1, 1, 1>;
+
+/// Why no model could be shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LoadError {
+    /// No card, no FAT volume or no [`MODEL_FILE`] in its root.
+    NoFile,
+    /// The header or the CRC table could not be read.
+    Read,
+    /// The file is not a valid tri-grid.
+    Invalid,
+    /// The file has more blocks than [`MAX_FILE_BLOCKS`] (its count).
+    TooLarge(u32),
+}
+
+impl core::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            LoadError::NoFile => write!(
+                f,
+                "No {MODEL_FILE} on the SD card\nand no model in flash.\nSee README."
+            ),
+            LoadError::Read => write!(f, "{MODEL_FILE}: the card\nfailed to read it."),
+            LoadError::Invalid => write!(f, "{MODEL_FILE} is not a\nvalid tri-grid."),
+            LoadError::TooLarge(n) => write!(
+                f,
+                "{MODEL_FILE}: {n} blocks,\nmore than the {MAX_FILE_BLOCKS}\nthis viewer holds."
+            ),
         }
     }
 }
 
-/// Why no model could be read from the SD card.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub enum LoadError {
-    /// No card, no FAT volume, no `MODEL.TG`, or a read failed.
-    Card,
-    /// `MODEL.TG` is larger than the arena (its size, bytes).
-    TooLarge(u32),
-    /// The file is not a valid tri-grid.
-    Invalid,
-}
-
-/// Reads [`MODEL_FILE`] from the first FAT volume of the SD card on `spi` into `arena` and checks
-/// it (`Verify::Full`: header, structure and every block's CRC). Call it with the bus at ≤ 400 kHz
-/// (card initialisation); the bus may be sped up afterwards.
+/// Opens [`MODEL_FILE`] in the root of the first FAT volume of `volumes`. On an SD card in SPI mode
+/// call it with the bus at ≤ 400 kHz (the card initialises on the first read).
 ///
 /// # Errors
-/// [`LoadError`]: no card or file, a file larger than `arena`, a file that is not a tri-grid.
-pub fn load_model<S: SpiDevice, D: DelayNs>(
-    spi: S,
-    delay: D,
-    arena: &mut [u8],
-) -> Result<&[u8], LoadError> {
-    let card = SdCard::new(spi, delay);
-    let len = {
-        let volumes = VolumeManager::new(card, NoClock);
-        let volume = volumes.open_volume(VolumeIdx(0)).map_err(|e| {
-            defmt::warn!("SD card: {}", e);
-            LoadError::Card
-        })?;
-        let root = volume.open_root_dir().map_err(|_| LoadError::Card)?;
-        let file = root
-            .open_file_in_dir(MODEL_FILE, Mode::ReadOnly)
-            .map_err(|_| LoadError::Card)?;
-        let len = file.length();
-        let dest = arena
-            .get_mut(..len as usize)
-            .ok_or(LoadError::TooLarge(len))?;
-        let mut done = 0;
-        while done < dest.len() {
-            match file.read(&mut dest[done..]) {
-                Ok(0) | Err(_) => return Err(LoadError::Card),
-                Ok(n) => done += n,
-            }
-        }
-        len as usize
-    };
-    let bytes = &arena[..len];
-    TriGrid::open(bytes, Verify::Full).map_err(|e| {
-        defmt::warn!("{}: {}", MODEL_FILE, defmt::Display2Format(&e));
-        LoadError::Invalid
+/// [`LoadError::NoFile`]: no card, volume or file.
+pub fn open_model<D: BlockDevice>(volumes: &Volumes<D>) -> Result<CardFile<'_, D>, LoadError> {
+    let volume = volumes.open_raw_volume(VolumeIdx(0)).map_err(|e| {
+        log!(warn, "SD card: {}", defmt_debug(&e));
+        LoadError::NoFile
     })?;
-    Ok(bytes)
+    let root = volumes
+        .open_root_dir(volume)
+        .map_err(|_| LoadError::NoFile)?;
+    let file: RawFile = volumes
+        .open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)
+        .map_err(|_| LoadError::NoFile)?;
+    Ok(SdFile::new(volumes, file))
 }
 
-/// The frame's buffers (statics on the board).
-pub struct Buffers<'a> {
-    /// RGB565 rows.
-    pub color: &'a mut [[u16; WIDTH]; HEIGHT],
-    /// Depth rows.
-    pub depth: &'a mut [[u16; WIDTH]; HEIGHT],
-    /// The shading table.
-    pub table: &'a mut ShadingTable<1>,
+/// What a log line can show of an embedded-sdmmc error.
+#[cfg(feature = "defmt")]
+fn defmt_debug<E: core::fmt::Debug>(e: &E) -> defmt::Debug2Format<'_, E> {
+    defmt::Debug2Format(e)
+}
+#[cfg(not(feature = "defmt"))]
+fn defmt_debug<E>(e: &E) -> &E {
+    e
+}
+
+/// Where the model comes from: the card, or the model linked into flash.
+pub enum ModelSource<'v, D: BlockDevice> {
+    /// [`MODEL_FILE`] on the card.
+    Card(CardFile<'v, D>),
+    /// A `.tg` in flash (the `model` feature of the board binary).
+    Flash(MemSource<'static>),
+}
+
+/// A failed read of a [`ModelSource`].
+#[derive(Debug)]
+pub enum SourceError<E> {
+    /// The card's (an embedded-sdmmc error).
+    Card(E),
+    /// Past the end of the flash model.
+    Flash(OutOfRange),
+}
+
+impl<D: BlockDevice> ChunkSource for ModelSource<'_, D> {
+    type Error = SourceError<embedded_sdmmc::Error<D::Error>>;
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
+        match self {
+            ModelSource::Card(f) => f.read_at(offset, buf).map_err(SourceError::Card),
+            ModelSource::Flash(m) => m.read_at(offset, buf).map_err(SourceError::Flash),
+        }
+    }
+    fn byte_len(&self) -> Option<u64> {
+        match self {
+            ModelSource::Card(f) => f.byte_len(),
+            ModelSource::Flash(m) => m.byte_len(),
+        }
+    }
+}
+
+/// The block cache's tables: one `static mut` on the board (its empty entries are not zero, so it
+/// sits in `.data`, apart from the zeroed cache blocks in `.bss`), a box on the host.
+pub struct StreamTables {
+    /// Cache slots.
+    pub slots: [SlotEntry; CACHE_SLOTS],
+    /// One entry per block of the file.
+    pub blocks: [BlockEntry; MAX_FILE_BLOCKS],
+}
+
+impl StreamTables {
+    /// Empty tables.
+    pub const EMPTY: Self = Self {
+        slots: [SlotEntry::EMPTY; CACHE_SLOTS],
+        blocks: [BlockEntry::EMPTY; MAX_FILE_BLOCKS],
+    };
+}
+
+/// Opens the `.tg` on `src` for streaming through the [`CACHE_BYTES`] of `cache` (reads its header
+/// and CRC table).
+///
+/// # Errors
+/// [`LoadError`]: the header cannot be read, is not a tri-grid's, or declares too many blocks.
+pub fn open_stream<'a, C: ChunkSource + ?Sized>(
+    src: &mut C,
+    cache: &'a mut [u8; CACHE_BYTES],
+    tables: &'a mut StreamTables,
+) -> Result<TgStream<'a>, LoadError> {
+    TgStream::open(src, cache, &mut tables.slots, &mut tables.blocks).map_err(|e| {
+        log!(warn, "{}: {}", MODEL_FILE, shown!(e));
+        match e {
+            StreamError::Device(_) => LoadError::Read,
+            StreamError::TooManyBlocks { blocks, .. } => LoadError::TooLarge(blocks),
+            StreamError::Format(_) | StreamError::CacheTooSmall { .. } => LoadError::Invalid,
+        }
+    })
+}
+
+/// A monotonic clock in microseconds (the board's timer).
+pub trait Clock {
+    /// Microseconds since some fixed point.
+    fn now_us(&mut self) -> u64;
+}
+
+/// What one drawn frame (or pass) was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameInfo {
+    /// LOD cutoff, pixels.
+    pub cutoff_px: f32,
+    /// Splats drawn.
+    pub splats: u32,
+    /// Nodes visited.
+    pub nodes: u32,
+    /// Blocks the frame wanted and did not have (0: the resident file's frame).
+    pub missing: u32,
+    /// Whether the read-error marker is up.
+    pub marker: bool,
+    /// Bytes read after the frame.
+    pub read: u32,
+    /// Render and read time, microseconds.
+    pub frame_us: u32,
+}
+
+/// What one [`Viewer::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepOutcome {
+    /// A whole frame from what is resident, sent to the panel: coarse while a button is held, or a
+    /// step of refinement (with the HUD line).
+    Frame(FrameInfo),
+    /// A pass of the refined 1 px frame, drawn off screen (the panel keeps the last frame).
+    Pass(FrameInfo),
+    /// Full detail is on the panel, without the HUD: the resident file's 1 px frame.
+    Refined(FrameInfo),
+    /// Refinement stopped short because reads keep failing: the panel keeps the last frame, with
+    /// the marker.
+    GaveUp(FrameInfo),
+    /// Nothing to draw: nothing is held and the panel shows all it can.
+    Idle,
+}
+
+/// Where refinement stands.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum State {
+    /// Whole frames at the controller's cutoff: `converged` whether the last one missed nothing,
+    /// `tries` frames drawn at this cutoff.
+    Whole { converged: bool, tries: u32 },
+    /// The 1 px frame in passes: `first` before its first pass, `idle` consecutive passes that
+    /// read nothing intact.
+    Passes { first: bool, idle: u32 },
+    /// Nothing more to draw until a button is pressed.
+    Rest,
+}
+
+/// The viewer: a stream, its source, the panel, the frame's buffers and the camera.
+pub struct Viewer<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> {
+    stream: TgStream<'a>,
+    src: C,
+    panel: P,
+    clock: K,
+    targets: StreamTargets<'a>,
+    orbit: Orbit,
+    lod: FrameRateController,
+    state: State,
+    /// Failed reads counted so far, and bytes read, when the marker was last decided.
+    failed_before: u32,
+    read_before: u64,
+    marker: bool,
+}
+
+impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, P, K> {
+    /// A viewer of `stream` (opened on `src` by [`open_stream`]) drawing into `targets` and onto
+    /// `panel`, from the std view.
+    pub fn new(
+        stream: TgStream<'a>,
+        src: C,
+        panel: P,
+        clock: K,
+        targets: StreamTargets<'a>,
+    ) -> Self {
+        Viewer {
+            stream,
+            src,
+            panel,
+            clock,
+            targets,
+            orbit: Orbit::default(),
+            lod: FrameRateController::new(TARGET_FRAME_US, FIRST_CUTOFF_PX),
+            state: State::Whole {
+                converged: false,
+                tries: 0,
+            },
+            failed_before: 0,
+            read_before: 0,
+            marker: false,
+        }
+    }
+
+    /// The camera's view now.
+    pub fn view(&self) -> View {
+        self.orbit.view
+    }
+
+    /// The stream (its header and counters).
+    pub fn stream(&self) -> &TgStream<'a> {
+        &self.stream
+    }
+
+    /// The panel.
+    pub fn panel(&self) -> &P {
+        &self.panel
+    }
+
+    /// One turn of the loop with the buttons `held` ([`Button::ALL`] order): see the crate docs.
+    pub fn step(&mut self, held: [bool; 6]) -> StepOutcome {
+        let moved = self.orbit.step(held);
+        if moved || held.contains(&true) {
+            let info = self.whole_frame(self.lod.cutoff(), IO_BUDGET_BYTES, true);
+            self.lod.update(info.frame_us);
+            self.state = State::Whole {
+                converged: false,
+                tries: 0,
+            };
+            return StepOutcome::Frame(info);
+        }
+        match self.state {
+            State::Rest => StepOutcome::Idle,
+            State::Whole { converged, tries } => {
+                let tries = if converged {
+                    if self.lod.refine_idle().is_none() {
+                        self.state = State::Rest;
+                        return StepOutcome::Idle;
+                    }
+                    0
+                } else {
+                    tries
+                };
+                let cutoff = self.lod.cutoff();
+                let finest = cutoff <= FINEST_CUTOFF_PX;
+                let info = self.whole_frame(cutoff, REFINE_IO_BUDGET_BYTES, !finest);
+                let converged = info.missing == 0;
+                if converged && finest {
+                    // Drawn without the HUD: the resident file's frame is on the panel.
+                    self.state = State::Rest;
+                    return StepOutcome::Refined(info);
+                }
+                let stuck = info.read == 0
+                    || self.stream.working_set() as usize > self.stream.cache().capacity();
+                if !converged && stuck {
+                    // The frame wants more than the cache holds at once (its blocks would evict
+                    // each other, or what it uses leaves no room for what it lacks): the 1 px
+                    // frame, in passes.
+                    self.state = State::Passes {
+                        first: true,
+                        idle: 0,
+                    };
+                } else if !converged && tries + 1 >= MAX_CONVERGE_FRAMES {
+                    self.state = State::Rest;
+                    return StepOutcome::GaveUp(info);
+                } else {
+                    self.state = State::Whole {
+                        converged,
+                        tries: tries + 1,
+                    };
+                }
+                StepOutcome::Frame(info)
+            }
+            State::Passes { first, idle } => self.pass(first, idle),
+        }
+    }
+
+    /// Draws a whole frame at `cutoff_px` from what is resident, with the marker (and the HUD line
+    /// when `hud`), sends it to the panel and reads up to `budget` bytes.
+    fn whole_frame(&mut self, cutoff_px: f32, budget: u32, hud: bool) -> FrameInfo {
+        let t0 = self.clock.now_us();
+        let drawn = render_stream_view(
+            &mut self.stream,
+            self.orbit.view,
+            cutoff_px,
+            &mut self.targets,
+            |_| {},
+        );
+        let missing = self.stream.missing();
+        let marker = self.update_marker();
+        let read = self.stream.serve(&mut self.src, budget).bytes;
+        let frame_us = elapsed(t0, self.clock.now_us());
+        let stats = drawn.as_ref().map(|d| d.stats).unwrap_or_default();
+        let info = FrameInfo {
+            cutoff_px,
+            splats: stats.splats,
+            nodes: stats.nodes_visited,
+            missing: if drawn.is_ok() {
+                missing
+            } else {
+                missing.max(1)
+            },
+            marker,
+            read,
+            frame_us,
+        };
+        let mut fb = Framebuffer::new(self.targets.color, self.targets.depth);
+        if let Err(e) = drawn {
+            log!(error, "frame: {}", shown!(e));
+        }
+        if marker {
+            // The framebuffer's drawing cannot fail (`Infallible`).
+            let _ = draw_error_marker(&mut fb);
+        }
+        if hud {
+            let mut line = Line::new();
+            let _ = write!(
+                line,
+                "{} splats  cutoff {} px  {} ms",
+                info.splats,
+                cutoff_px as u32,
+                frame_us / 1000
+            );
+            draw_text(&mut fb, &line, Point::new(2, HEIGHT as i32 - 4));
+        }
+        self.blit();
+        log!(
+            info,
+            "frame: cutoff {} px, {} splats, {} nodes, missing {}, read {} B, {} us",
+            cutoff_px,
+            info.splats,
+            info.nodes,
+            info.missing,
+            info.read,
+            frame_us
+        );
+        info
+    }
+
+    /// The next pass of the 1 px frame; shown when it completes the frame.
+    fn pass(&mut self, first: bool, idle: u32) -> StepOutcome {
+        let t0 = self.clock.now_us();
+        let intact = |s: &TgStream<'_>| {
+            let c = s.counters();
+            c.reads - c.read_errors - c.crc_errors - c.structure_errors
+        };
+        let before = intact(&self.stream);
+        let drawn = render_stream_pass(
+            &mut self.stream,
+            self.orbit.view,
+            FINEST_CUTOFF_PX,
+            &mut self.targets,
+            first,
+            |_| {},
+        );
+        let done = drawn.is_ok() && self.stream.refined_done();
+        let missing = if done {
+            self.stream.missing()
+        } else {
+            self.stream.missing().max(1)
+        };
+        let marker = self.update_marker();
+        let read = if done && missing == 0 {
+            0
+        } else {
+            self.stream
+                .serve(&mut self.src, REFINE_IO_BUDGET_BYTES)
+                .bytes
+        };
+        let stats = drawn.as_ref().map(|d| d.stats).unwrap_or_default();
+        let info = FrameInfo {
+            cutoff_px: FINEST_CUTOFF_PX,
+            splats: stats.splats,
+            nodes: stats.nodes_visited,
+            missing,
+            marker,
+            read,
+            frame_us: elapsed(t0, self.clock.now_us()),
+        };
+        if done {
+            // The passes add up to the whole frame: show it (the marker over it on the panel only,
+            // as the buffers hold the frame).
+            self.blit();
+            if marker {
+                let _ = draw_error_marker(&mut self.panel);
+            }
+            self.state = State::Rest;
+            log!(
+                info,
+                "refined: {} passes, missing {}",
+                self.stream.passes(),
+                missing
+            );
+            return if missing == 0 {
+                StepOutcome::Refined(info)
+            } else {
+                StepOutcome::GaveUp(info)
+            };
+        }
+        if marker {
+            // The panel shows the last whole frame: mark it there, not in the buffers.
+            let _ = draw_error_marker(&mut self.panel);
+        }
+        let idle = if intact(&self.stream) == before {
+            idle + 1
+        } else {
+            0
+        };
+        if drawn.is_err() || idle >= MAX_IDLE_PASSES || self.stream.passes() >= MAX_PASSES {
+            log!(
+                warn,
+                "refinement stopped after {} passes",
+                self.stream.passes()
+            );
+            self.state = State::Rest;
+            return StepOutcome::GaveUp(info);
+        }
+        self.state = State::Passes { first: false, idle };
+        StepOutcome::Pass(info)
+    }
+
+    /// Whether the marker is up after the frame just drawn: from a failed read until reads succeed
+    /// again with none failing (the QEMU firmware's rule, `pocketsplat_pda::stream`).
+    fn update_marker(&mut self) -> bool {
+        let c = *self.stream.counters();
+        let failed_total = c.read_errors + c.crc_errors + c.structure_errors;
+        let failed = failed_total - self.failed_before;
+        let read_ok = c.bytes_read > self.read_before;
+        self.failed_before = failed_total;
+        self.read_before = c.bytes_read;
+        self.marker = failed > 0 || self.stream.inconsistent() > 0 || (self.marker && !read_ok);
+        self.marker
+    }
+
+    /// Sends the colour buffer to the panel in one window write.
+    fn blit(&mut self) {
+        let pixels = self
+            .targets
+            .color
+            .iter()
+            .flatten()
+            .map(|&p| Rgb565::from(RawU16::new(p)));
+        let area = Rectangle::new(Point::zero(), Size::new(WIDTH as u32, HEIGHT as u32));
+        if self.panel.fill_contiguous(&area, pixels).is_err() {
+            log!(error, "panel write failed");
+        }
+    }
+}
+
+fn elapsed(t0: u64, t1: u64) -> u32 {
+    u32::try_from(t1.saturating_sub(t0)).unwrap_or(u32::MAX)
+}
+
+/// Clears `panel` and writes `why` on it.
+pub fn show_message<P: DrawTarget<Color = Rgb565>>(panel: &mut P, why: &LoadError) {
+    let _ = panel.clear(Rgb565::BLACK);
+    let mut text = Line::new();
+    let _ = write!(text, "{why}");
+    let style = MonoTextStyle::new(&FONT_6X10, Rgb565::WHITE);
+    let _ = Text::new(text.as_str(), Point::new(8, 20), style).draw(panel);
+}
+
+/// The memory the viewer needs beside the panel's (statics on the board).
+pub struct Memory<'a> {
+    /// The block cache.
+    pub cache: &'a mut [u8; CACHE_BYTES],
+    /// Its tables.
+    pub tables: &'a mut StreamTables,
+    /// The frame's buffers.
+    pub targets: StreamTargets<'a>,
+}
+
+/// Runs the viewer forever on `card` and `panel`: streams [`MODEL_FILE`] from the card or, when it
+/// has none, `flash` (a `.tg` linked in; empty for none), moving the camera with `buttons` and
+/// polling them at 50 Hz once full detail is on screen. Without a model the panel says what to do.
+pub fn run<D, P, B, DL, K>(
+    card: D,
+    mut panel: P,
+    mut buttons: Buttons<B>,
+    mut delay: DL,
+    clock: K,
+    mem: Memory<'_>,
+    flash: &'static [u8],
+) -> !
+where
+    D: BlockDevice,
+    P: DrawTarget<Color = Rgb565>,
+    B: InputPin,
+    DL: DelayNs,
+    K: Clock,
+{
+    let volumes = volumes(card);
+    let mut src = match open_model(&volumes) {
+        Ok(file) => ModelSource::Card(file),
+        Err(e) if !flash.is_empty() => {
+            log!(info, "{}: {}; streaming the model in flash", MODEL_FILE, e);
+            ModelSource::Flash(MemSource::new(flash))
+        }
+        Err(e) => {
+            show_message(&mut panel, &e);
+            halt("no model", &mut delay);
+        }
+    };
+    let Memory {
+        cache,
+        tables,
+        targets,
+    } = mem;
+    let stream = match open_stream(&mut src, cache, tables) {
+        Ok(s) => s,
+        Err(e) => {
+            show_message(&mut panel, &e);
+            halt("no model", &mut delay);
+        }
+    };
+    let h = *stream.header();
+    log!(
+        info,
+        "model: {} blocks of {} bytes, rho {}, depth {}",
+        h.blocks,
+        h.block_size(),
+        h.rho,
+        h.depth
+    );
+    let mut viewer = Viewer::new(stream, src, panel, clock, targets);
+    loop {
+        if viewer.step(buttons.held()) == StepOutcome::Idle {
+            delay.delay_ms(20);
+        }
+    }
 }
 
 /// The panel and its pins.
@@ -227,33 +774,30 @@ pub struct Panel<S, DC, RST, BL> {
     pub backlight: BL,
 }
 
-/// A monotonic clock in microseconds (the board's timer).
-pub trait Clock {
-    /// Microseconds since some fixed point.
-    fn now_us(&mut self) -> u64;
-}
+/// The panel did not initialise (an SPI write or its reset pin failed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PanelInitFailed;
 
-/// Runs the viewer forever: initialises the panel, then draws `model` (or, when it is `None`, a
-/// screen saying how to provide one), moving the camera with `buttons`.
+/// An ST7789 240×320 panel through mipidsi, as a [`DrawTarget`].
+pub type St7789<'b, S, DC, RST> = mipidsi::Display<SpiInterface<'b, S, DC>, ST7789, RST>;
+
+/// Initialises the panel (reset, inversion on for the 2.8" IPS panel's true colours) and turns its
+/// backlight on; `spi_buffer` batches pixels (a few KB: larger is faster).
 ///
-/// `spi_buffer` batches pixels for the panel (a few KB: larger is faster).
-pub fn run<S, DC, RST, BL, P, D, C>(
+/// # Errors
+/// When the panel does not initialise.
+pub fn init_panel<'b, S, DC, RST, BL, D>(
     panel: Panel<S, DC, RST, BL>,
-    mut buttons: Buttons<P>,
-    mut delay: D,
-    mut clock: C,
-    spi_buffer: &mut [u8],
-    buffers: Buffers<'_>,
-    model: Result<&[u8], LoadError>,
-) -> !
+    delay: &mut D,
+    spi_buffer: &'b mut [u8],
+) -> Result<St7789<'b, S, DC, RST>, PanelInitFailed>
 where
     S: SpiDevice,
     DC: OutputPin,
     RST: OutputPin,
     BL: OutputPin,
-    P: InputPin,
     D: DelayNs,
-    C: Clock,
 {
     let Panel {
         spi,
@@ -262,154 +806,30 @@ where
         mut backlight,
     } = panel;
     let interface = SpiInterface::new(spi, dc, spi_buffer);
-    // The 2.8" IPS panel shows true colours with inversion on.
-    let mut display = match mipidsi::Builder::new(ST7789, interface)
+    let display = mipidsi::Builder::new(ST7789, interface)
         .display_size(WIDTH as u16, HEIGHT as u16)
         .invert_colors(ColorInversion::Inverted)
         .reset_pin(reset)
-        .init(&mut delay)
-    {
-        Ok(d) => d,
-        Err(_) => halt("panel initialisation failed", &mut delay),
-    };
+        .init(delay)
+        .map_err(|_| PanelInitFailed)?;
     let _ = backlight.set_high();
-
-    let Buffers {
-        color,
-        depth,
-        table,
-    } = buffers;
-    let model_bytes = model.map_or(0, <[u8]>::len);
-    let grid = match model.map(|bytes| TriGrid::open(bytes, Verify::Structure)) {
-        Ok(Ok(grid)) => grid,
-        failed => {
-            let mut fb = Framebuffer::new(color, depth);
-            fb.clear(0);
-            let mut text = heapless_line();
-            let _ = match failed {
-                Err(LoadError::TooLarge(n)) => write!(
-                    text,
-                    "{MODEL_FILE}: {n} bytes,\ntoo large for RAM.\nBake with --depth 4."
-                ),
-                Err(LoadError::Invalid) | Ok(Err(_)) => {
-                    write!(text, "{MODEL_FILE} is not a\nvalid tri-grid.")
-                }
-                Err(LoadError::Card) | Ok(Ok(_)) => write!(
-                    text,
-                    "No {MODEL_FILE} on the SD card\nand no model in flash.\nSee README."
-                ),
-            };
-            draw_text(&mut fb, &text, Point::new(8, 20));
-            let _ = blit(&mut display, fb.rows());
-            halt("no model", &mut delay);
-        }
-    };
-    let h = grid.header();
-    defmt::info!(
-        "model: {} bytes, rho {}, depth {}, {} samples",
-        model_bytes,
-        h.rho,
-        h.depth,
-        grid.total_samples()
-    );
-
-    let model = Model::from(grid);
-
-    let mut orbit = Orbit::default();
-    let mut lod = FrameRateController::new(TARGET_FRAME_US, FIRST_CUTOFF_PX);
-    let mut cutoff = Some(lod.cutoff());
-    let mut targets = Targets {
-        color,
-        depth,
-        table,
-    };
-    loop {
-        let held = buttons.held();
-        let moved = orbit.step(held);
-        if moved {
-            cutoff = Some(lod.cutoff());
-        }
-        let Some(cutoff_px) = cutoff else {
-            // Full detail is on screen and nothing moves: poll the buttons at 50 Hz.
-            delay.delay_ms(20);
-            continue;
-        };
-        let t0 = clock.now_us();
-        let drawn = match render_view(
-            &model,
-            orbit.view,
-            cutoff_px,
-            Shadows::Off,
-            &mut targets,
-            |_| {},
-        ) {
-            Ok(d) => d,
-            Err(e) => {
-                defmt::error!("frame: {}", defmt::Display2Format(&e));
-                cutoff = None;
-                continue;
-            }
-        };
-        let t1 = clock.now_us();
-        let render_us = u32::try_from(t1 - t0).unwrap_or(u32::MAX);
-        let mut fb = Framebuffer::new(targets.color, targets.depth);
-        let mut hud = heapless_line();
-        let _ = write!(
-            hud,
-            "{} splats  cutoff {} px  {} ms",
-            drawn.stats.splats,
-            cutoff_px as u32,
-            render_us / 1000
-        );
-        draw_text(&mut fb, &hud, Point::new(2, HEIGHT as i32 - 4));
-        let _ = blit(&mut display, fb.rows());
-        let blit_us = u32::try_from(clock.now_us() - t1).unwrap_or(u32::MAX);
-        defmt::info!(
-            "frame: cutoff {} px, {} splats, {} nodes, render {} us, blit {} us",
-            cutoff_px,
-            drawn.stats.splats,
-            drawn.stats.nodes_visited,
-            render_us,
-            blit_us
-        );
-        cutoff = if moved || held.contains(&true) {
-            Some(lod.update(render_us))
-        } else {
-            lod.refine_idle()
-        };
-    }
+    Ok(display)
 }
 
-/// Sends the frame to the panel in one window write.
-fn blit<DI, M, RST>(
-    display: &mut mipidsi::Display<DI, M, RST>,
-    rows: &[[u16; WIDTH]; HEIGHT],
-) -> Result<(), DI::Error>
-where
-    DI: mipidsi::interface::Interface,
-    M: mipidsi::models::Model<ColorFormat = Rgb565>,
-    Rgb565: mipidsi::interface::InterfacePixelFormat<DI::Word>,
-    RST: OutputPin,
-{
-    let pixels = rows.iter().flatten().map(|&p| Rgb565::from(RawU16::new(p)));
-    display.set_pixels(0, 0, WIDTH as u16 - 1, HEIGHT as u16 - 1, pixels)
-}
-
-/// A short text buffer (no heap).
-fn heapless_line() -> Line {
-    Line {
-        buf: [0; 96],
-        len: 0,
-    }
-}
-
-/// Up to 96 bytes of text; longer writes are cut.
+/// Up to 96 bytes of text; longer writes are cut (no heap).
 struct Line {
     buf: [u8; 96],
     len: usize,
 }
 
 impl Line {
+    fn new() -> Self {
+        Line {
+            buf: [0; 96],
+            len: 0,
+        }
+    }
+
     fn as_str(&self) -> &str {
         core::str::from_utf8(&self.buf[..self.len]).unwrap_or("")
     }
@@ -431,8 +851,8 @@ fn draw_text(fb: &mut Framebuffer<'_>, text: &Line, at: Point) {
 }
 
 /// Logs `why` and idles (the panel keeps its last image).
-fn halt(why: &str, delay: &mut impl DelayNs) -> ! {
-    defmt::error!("halted: {}", why);
+pub fn halt(why: &str, delay: &mut impl DelayNs) -> ! {
+    log!(error, "halted: {}", why);
     loop {
         delay.delay_ms(1000);
     }

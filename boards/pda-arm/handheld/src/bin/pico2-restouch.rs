@@ -2,10 +2,11 @@
 //! plugged into a Waveshare Pico-ResTouch-LCD-2.8 (ST7789 240×320 IPS panel and a micro-SD slot on
 //! SPI1), with six push buttons from GP2–GP7 to ground. Wiring and flashing: `../README.md`.
 //!
-//! This file only binds pins: the viewer is [`pocketsplat_handheld::run`]. The panel and the card
-//! share SPI1 through `embedded-hal-bus`'s `RefCellDevice`, one chip select each; the touch
-//! controller's chip select is held high so it stays off the bus. The card is read at 400 kHz
-//! (initialisation), then the bus goes to 62.5 MHz for the panel.
+//! This file only binds pins: the viewer is [`pocketsplat_handheld::run`], which streams `MODEL.TG`
+//! from the card for as long as it runs. The panel and the card share SPI1 through
+//! `embedded-hal-bus`'s `RefCellDevice`, one chip select each; the touch controller's chip select is
+//! held high so it stays off the bus. The card is initialised at 400 kHz, then the bus goes to
+//! 25 MHz, the most an SD card takes in SPI mode (the panel, which would take 62.5, shares it).
 #![no_std]
 #![no_main]
 
@@ -14,13 +15,16 @@ use core::cell::RefCell;
 use defmt_rtt as _;
 use embedded_hal::digital::OutputPin;
 use embedded_hal_bus::spi::RefCellDevice;
+use embedded_sdmmc::SdCard;
 use hal::clocks::Clock as _;
 use hal::fugit::RateExtU32;
 use hal::gpio::{FunctionSpi, PinState};
 use panic_probe as _;
 use pocketsplat_core::camera::{HEIGHT, WIDTH};
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_handheld::{load_model, run, Buffers, Buttons, Clock, Panel, MODEL_FILE};
+use pocketsplat_handheld::{
+    halt, init_panel, run, Buttons, Clock, Memory, Panel, StreamTables, StreamTargets, CACHE_BYTES,
+};
 use rp235x_hal as hal;
 
 /// Tells the boot ROM this is a secure Arm executable.
@@ -33,10 +37,10 @@ pub static IMAGE_DEF: hal::block::ImageDef = hal::block::ImageDef::secure_exe();
 
 /// The Pico 2's crystal.
 const XTAL_FREQ_HZ: u32 = 12_000_000;
-/// A model read from the SD card must fit here (a depth-4 bunny is 72 KB).
-const ARENA_BYTES: usize = 128 * 1024;
+/// The shared bus after the card's initialisation, Hz.
+const SPI_HZ: u32 = 25_000_000;
 
-/// The model linked into flash at build time (`model` feature), used when the card has none.
+/// The model linked into flash at build time (`model` feature), streamed when the card has none.
 #[cfg(feature = "model")]
 static FLASH_MODEL: &[u8] = include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE"));
 #[cfg(not(feature = "model"))]
@@ -57,7 +61,8 @@ fn main() -> ! {
     static mut COLOR: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
     static mut DEPTH: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
     static mut TABLE: ShadingTable<1> = ShadingTable::new();
-    static mut ARENA: [u8; ARENA_BYTES] = [0; ARENA_BYTES];
+    static mut CACHE: [u8; CACHE_BYTES] = [0; CACHE_BYTES];
+    static mut TABLES: StreamTables = StreamTables::EMPTY;
     static mut SPI_BUFFER: [u8; 4096] = [0; 4096];
 
     let mut pac = hal::pac::Peripherals::take().expect("peripherals taken once");
@@ -99,24 +104,29 @@ fn main() -> ! {
     let mut touch_cs = pins.gpio16.into_push_pull_output_in_state(PinState::High);
     let _ = touch_cs.set_high();
 
-    let sd = RefCellDevice::new(&bus, sd_cs, timer).expect("chip select");
-    let model = match load_model(sd, timer, ARENA) {
-        Err(e) if !FLASH_MODEL.is_empty() => {
-            defmt::info!("{}: {}; drawing the model in flash", MODEL_FILE, e);
-            Ok(FLASH_MODEL)
-        }
-        from_card => from_card,
-    };
+    // The card initialises (at 400 kHz) on its first use; then the bus speeds up.
+    let card = SdCard::new(
+        RefCellDevice::new(&bus, sd_cs, timer).expect("chip select"),
+        timer,
+    );
+    match card.num_bytes() {
+        Ok(n) => defmt::info!("SD card: {} bytes", n),
+        Err(e) => defmt::warn!("SD card: {}", e),
+    }
     let baud = bus
         .borrow_mut()
-        .set_baudrate(clocks.peripheral_clock.freq(), 62_500.kHz());
+        .set_baudrate(clocks.peripheral_clock.freq(), SPI_HZ.Hz());
     defmt::info!("SPI1 at {} Hz", baud.to_Hz());
 
+    let mut delay = timer;
     let panel = Panel {
         spi: RefCellDevice::new(&bus, lcd_cs, timer).expect("chip select"),
         dc: pins.gpio8.into_push_pull_output(),
         reset: pins.gpio15.into_push_pull_output_in_state(PinState::High),
         backlight: pins.gpio13.into_push_pull_output(),
+    };
+    let Ok(display) = init_panel(panel, &mut delay, SPI_BUFFER) else {
+        halt("panel initialisation failed", &mut delay);
     };
     let buttons = Buttons {
         pins: [
@@ -129,17 +139,21 @@ fn main() -> ! {
         ],
     };
     run(
-        panel,
+        card,
+        display,
         buttons,
-        timer,
+        delay,
         Timer(timer),
-        SPI_BUFFER,
-        Buffers {
-            color: COLOR,
-            depth: DEPTH,
-            table: TABLE,
+        Memory {
+            cache: CACHE,
+            tables: TABLES,
+            targets: StreamTargets {
+                color: COLOR,
+                depth: DEPTH,
+                table: TABLE,
+            },
         },
-        model,
+        FLASH_MODEL,
     )
 }
 
