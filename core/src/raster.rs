@@ -8,7 +8,8 @@
 use core::convert::Infallible;
 
 use embedded_graphics_core::draw_target::DrawTarget;
-use embedded_graphics_core::geometry::{Dimensions, OriginDimensions, Size};
+use embedded_graphics_core::geometry::{Dimensions, OriginDimensions, Point, Size};
+use embedded_graphics_core::image::ImageDrawable;
 use embedded_graphics_core::pixelcolor::raw::RawU16;
 use embedded_graphics_core::pixelcolor::Rgb565;
 use embedded_graphics_core::prelude::{PixelColor, RawData};
@@ -286,6 +287,68 @@ impl<const W: usize, const H: usize> OriginDimensions for Framebuffer<'_, W, H> 
     }
 }
 
+/// A finished frame is an image any embedded-graphics display can draw, in one contiguous write:
+///
+/// ```
+/// use core::convert::Infallible;
+/// use embedded_graphics_core::prelude::*;
+/// use embedded_graphics_core::image::ImageDrawable;
+/// use embedded_graphics_core::pixelcolor::Rgb565;
+/// use pocketsplat_core::raster::Framebuffer;
+///
+/// // A caller's display: here one that counts the white pixels it is sent.
+/// struct Panel(usize);
+/// impl OriginDimensions for Panel {
+///     fn size(&self) -> Size { Size::new(240, 320) }
+/// }
+/// impl DrawTarget for Panel {
+///     type Color = Rgb565;
+///     type Error = Infallible;
+///     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
+///         self.0 += px.into_iter().filter(|Pixel(_, c)| *c == Rgb565::WHITE).count();
+///         Ok(())
+///     }
+/// }
+///
+/// let (mut color, mut depth) = (Box::new([[0u16; 240]; 320]), Box::new([[0u16; 240]; 320]));
+/// let mut fb = Framebuffer::new(&mut color, &mut depth);
+/// fb.clear(0xFFFF);
+/// let mut panel = Panel(0);
+/// fb.draw(&mut panel).unwrap();
+/// assert_eq!(panel.0, 240 * 320);
+/// ```
+impl<const W: usize, const H: usize> ImageDrawable for Framebuffer<'_, W, H> {
+    type Color = Rgb565;
+
+    fn draw<D: DrawTarget<Color = Rgb565>>(&self, target: &mut D) -> Result<(), D::Error> {
+        let pixels = self
+            .color
+            .iter()
+            .flatten()
+            .map(|&p| Rgb565::from(RawU16::new(p)));
+        target.fill_contiguous(&self.bounding_box(), pixels)
+    }
+
+    fn draw_sub_image<D: DrawTarget<Color = Rgb565>>(
+        &self,
+        target: &mut D,
+        area: &Rectangle,
+    ) -> Result<(), D::Error> {
+        let area = area.intersection(&self.bounding_box());
+        let Some(br) = area.bottom_right() else {
+            return Ok(());
+        };
+        let (x0, y0) = (area.top_left.x as usize, area.top_left.y as usize);
+        let pixels = self.color[y0..=br.y as usize].iter().flat_map(|row| {
+            row[x0..=br.x as usize]
+                .iter()
+                .map(|&p| Rgb565::from(RawU16::new(p)))
+        });
+        // Drawn at the target's origin, as embedded-graphics' sub-images are.
+        target.fill_contiguous(&Rectangle::new(Point::zero(), area.size), pixels)
+    }
+}
+
 impl<const W: usize, const H: usize> DrawTarget for Framebuffer<'_, W, H> {
     type Color = Rgb565;
     type Error = Infallible;
@@ -362,6 +425,31 @@ mod tests {
 
     fn buffers() -> (Rows, Rows) {
         (Box::new([[0; 240]; 320]), Box::new([[0; 240]; 320]))
+    }
+
+    #[test]
+    fn a_sub_image_is_the_area_s_pixels_at_the_target_s_origin() {
+        use embedded_graphics_core::geometry::Point;
+        use embedded_graphics_core::image::ImageDrawable;
+        let (mut c, mut d) = buffers();
+        for (y, row) in c.iter_mut().enumerate() {
+            for (x, p) in row.iter_mut().enumerate() {
+                *p = (x + 1000 * y) as u16;
+            }
+        }
+        let fb = Framebuffer::new(&mut c, &mut d);
+        let (mut c2, mut d2) = buffers();
+        let mut out = Framebuffer::new(&mut c2, &mut d2);
+        // Clipped to the frame: 10 × 2 of the asked 20 × 2.
+        let area = Rectangle::new(Point::new(230, 5), Size::new(20, 2));
+        fb.draw_sub_image(&mut out, &area).unwrap();
+        let rows = out.rows();
+        assert_eq!(rows[0][0], 230 + 5000);
+        assert_eq!(rows[1][9], 239 + 6000);
+        assert_eq!(rows[0][10], 0);
+        assert_eq!(rows[2][0], 0);
+        let drawn: usize = rows.iter().flatten().filter(|&&p| p != 0).count();
+        assert_eq!(drawn, 20);
     }
 
     #[test]

@@ -30,9 +30,8 @@
 use core::fmt::Write as _;
 
 use embedded_graphics::mono_font::{ascii::FONT_6X10, MonoTextStyle};
-use embedded_graphics::pixelcolor::{raw::RawU16, Rgb565};
+use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::prelude::*;
-use embedded_graphics::primitives::Rectangle;
 use embedded_graphics::text::Text;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{InputPin, OutputPin};
@@ -666,14 +665,9 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
 
     /// Sends the colour buffer to the panel in one window write.
     fn blit(&mut self) {
-        let pixels = self
-            .targets
-            .color
-            .iter()
-            .flatten()
-            .map(|&p| Rgb565::from(RawU16::new(p)));
-        let area = Rectangle::new(Point::zero(), Size::new(WIDTH as u32, HEIGHT as u32));
-        if self.panel.fill_contiguous(&area, pixels).is_err() {
+        // The frame is an embedded-graphics image: one contiguous write of the whole panel.
+        let fb = Framebuffer::new(self.targets.color, self.targets.depth);
+        if fb.draw(&mut self.panel).is_err() {
             log!(error, "panel write failed");
         }
     }
