@@ -108,21 +108,24 @@ impl<S: ChunkSource> ChunkSource for Pulled<S> {
 /// The tables a [`TgStream`] of this sequence needs beside its cache blocks, in one piece (one
 /// `static mut` for cortex-m-rt's entry to hand over; a box on the host). Apart from the blocks
 /// because their empty entries are not zero: as a static they sit in `.data`, whose image flash
-/// holds, while the 64 KB of blocks stay in `.bss`.
-pub struct StreamTables {
+/// holds, while the 64 KB of blocks stay in `.bss`. `BLOCKS` is the largest file it streams, in
+/// blocks (the handheld holds more than this sequence's [`MAX_FILE_BLOCKS`]).
+pub struct StreamTables<const BLOCKS: usize = MAX_FILE_BLOCKS> {
     /// Cache slots.
     pub slots: [SlotEntry; CACHE_SLOTS],
     /// One entry per block of the file.
-    pub blocks: [BlockEntry; MAX_FILE_BLOCKS],
+    pub blocks: [BlockEntry; BLOCKS],
 }
 
-impl StreamTables {
+impl<const BLOCKS: usize> StreamTables<BLOCKS> {
     /// Empty tables.
     pub const EMPTY: Self = Self {
         slots: [SlotEntry::EMPTY; CACHE_SLOTS],
-        blocks: [BlockEntry::EMPTY; MAX_FILE_BLOCKS],
+        blocks: [BlockEntry::EMPTY; BLOCKS],
     };
+}
 
+impl StreamTables {
     /// These tables and the cache blocks `data`, as [`stream_frames`] takes them.
     pub fn with_cache<'a>(&'a mut self, data: &'a mut [u8; CACHE_BYTES]) -> StreamMemory<'a> {
         StreamMemory {

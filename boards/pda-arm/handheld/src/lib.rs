@@ -44,12 +44,10 @@ use pocketsplat_core::camera::{View, HEIGHT, STANDARD_VIEWS, WIDTH};
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
-use pocketsplat_core::stream::{
-    BlockEntry, ChunkSource, MemSource, OutOfRange, SlotEntry, StreamError, TgStream,
-};
+use pocketsplat_core::stream::{ChunkSource, MemSource, OutOfRange, StreamError, TgStream};
 use pocketsplat_pda::stream::{
-    draw_error_marker, CACHE_SLOTS, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES,
-    MAX_PASSES, REFINE_IO_BUDGET_BYTES,
+    draw_error_marker, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES, MAX_PASSES,
+    REFINE_IO_BUDGET_BYTES,
 };
 use pocketsplat_pda::{render_stream_pass, render_stream_view};
 
@@ -297,22 +295,10 @@ impl<D: BlockDevice> ChunkSource for ModelSource<'_, D> {
     }
 }
 
-/// The block cache's tables: one `static mut` on the board (its empty entries are not zero, so it
-/// sits in `.data`, apart from the zeroed cache blocks in `.bss`), a box on the host.
-pub struct StreamTables {
-    /// Cache slots.
-    pub slots: [SlotEntry; CACHE_SLOTS],
-    /// One entry per block of the file.
-    pub blocks: [BlockEntry; MAX_FILE_BLOCKS],
-}
-
-impl StreamTables {
-    /// Empty tables.
-    pub const EMPTY: Self = Self {
-        slots: [SlotEntry::EMPTY; CACHE_SLOTS],
-        blocks: [BlockEntry::EMPTY; MAX_FILE_BLOCKS],
-    };
-}
+/// The block cache's tables, for files of up to [`MAX_FILE_BLOCKS`] blocks: one `static mut` on the
+/// board (its empty entries are not zero, so it sits in `.data`, apart from the zeroed cache blocks
+/// in `.bss`), a box on the host.
+pub type StreamTables = pocketsplat_pda::stream::StreamTables<MAX_FILE_BLOCKS>;
 
 /// Opens the `.tg` on `src` for streaming through the [`CACHE_BYTES`] of `cache` (reads its header
 /// and CRC table).
