@@ -56,10 +56,26 @@ pub fn phong(m: &Material, n: Vec3, l: Vec3, v: Vec3) -> [f64; 3] {
     [c(0), c(1), c(2)]
 }
 
-/// Packs a linear 0..=1 colour into RGB565, rounding to nearest.
+/// The RGB565 bit layout, red in the high five bits, then six of green, then five of blue: every
+/// packer in the project ends here. Channels must already fit their widths.
+pub const fn pack565(r: u16, g: u16, b: u16) -> u16 {
+    r << 11 | g << 5 | b
+}
+
+/// Packs a linear 0..=1 colour into RGB565, rounding to nearest (NaN packs as 0).
 pub fn to_rgb565(c: [f64; 3]) -> u16 {
     let q = |v: f64, max: f64| (v.clamp(0.0, 1.0) * max + 0.5) as u16;
-    q(c[0], 31.0) << 11 | q(c[1], 63.0) << 5 | q(c[2], 31.0)
+    pack565(q(c[0], 31.0), q(c[1], 63.0), q(c[2], 31.0))
+}
+
+/// Packs a 0..=255 colour (a scan's vertex colours, averaged) into RGB565, rounding to nearest.
+pub fn rgb255_to_rgb565(c: [f64; 3]) -> u16 {
+    to_rgb565(c.map(|v| v / 255.0))
+}
+
+/// Packs 8-bit channels into RGB565 by dropping their low bits (for colours made on the device).
+pub const fn rgb888_to_rgb565(r: u8, g: u8, b: u8) -> u16 {
+    pack565(r as u16 >> 3, g as u16 >> 2, b as u16 >> 3)
 }
 
 /// Expands RGB565 to 8-bit RGB by bit replication.
@@ -177,8 +193,11 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
         let shade = |c: i32, max: i32| {
             (((i64::from(c) * i64::from(amb)) >> 16).clamp(0, 65535) as i32 * max + 32768) >> 16
         };
-        self.ambient[k] =
-            (shade(base[0], 31) << 11 | shade(base[1], 63) << 5 | shade(base[2], 31)) as u16;
+        self.ambient[k] = pack565(
+            shade(base[0], 31) as u16,
+            shade(base[1], 63) as u16,
+            shade(base[2], 31) as u16,
+        );
         let pow = &self.pow_q16[k];
         for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
             let n = n.map(i32::from);
@@ -195,7 +214,11 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
                 let lit = ((i64::from(c) * i64::from(light)) >> 16) as i32;
                 ((lit + spec).clamp(0, 65535) * max + 32768) >> 16
             };
-            *out = (ch(base[0], 31) << 11 | ch(base[1], 63) << 5 | ch(base[2], 31)) as u16;
+            *out = pack565(
+                ch(base[0], 31) as u16,
+                ch(base[1], 63) as u16,
+                ch(base[2], 31) as u16,
+            );
         }
     }
 
@@ -228,6 +251,25 @@ mod tests {
         assert_eq!(to_rgb565([1.0, 1.0, 1.0]), 0xFFFF);
         assert_eq!(rgb565_to_rgb888(0xFFFF), [255, 255, 255]);
         assert_eq!(to_rgb565([1.0, 0.0, 0.0]), 0xF800);
+        assert_eq!(rgb888_to_rgb565(255, 255, 255), 0xFFFF);
+        assert_eq!(rgb888_to_rgb565(0, 255, 0), 0x07E0);
+        assert_eq!(rgb888_to_rgb565(0, 0, 255), 0x001F);
+    }
+
+    /// The bakers' 0..=255 packer rounds as their own `round()` did before it replaced them (a
+    /// fine sweep over averaged colours, past both ends), so no baked file changes a byte.
+    #[test]
+    fn rgb255_packs_as_round_to_nearest() {
+        for i in -64..=(256 * 64) {
+            let v = f64::from(i) / 64.0;
+            let q = |max: f64| ((v.clamp(0.0, 255.0) / 255.0) * max).round() as u16;
+            assert_eq!(
+                rgb255_to_rgb565([v, v, v]),
+                pack565(q(31.0), q(63.0), q(31.0)),
+                "{v}"
+            );
+        }
+        assert_eq!(rgb255_to_rgb565([f64::NAN; 3]), 0);
     }
 
     #[test]

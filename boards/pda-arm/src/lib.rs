@@ -68,10 +68,8 @@ impl core::fmt::Display for FrameCrc {
     }
 }
 
-/// Packs 8-bit channels into RGB565.
-pub const fn rgb565(r: u8, g: u8, b: u8) -> u16 {
-    ((r as u16 >> 3) << 11) | ((g as u16 >> 2) << 5) | (b as u16 >> 3)
-}
+/// Packs 8-bit channels into RGB565 (the core's one packer for them).
+pub use pocketsplat_core::shade::rgb888_to_rgb565 as rgb565;
 
 /// Floor of the square root of `n` (digit by digit, no division, no float).
 pub const fn isqrt(n: u32) -> u32 {

@@ -157,10 +157,7 @@ impl Prepared<'_> {
                     rgb[a] += w[k] * f64::from(c[a]);
                 }
             }
-            let q = |v: f64, bits: u32| {
-                ((v.clamp(0.0, 255.0) / 255.0) * f64::from((1u32 << bits) - 1)).round() as u16
-            };
-            q(rgb[0], 5) << 11 | q(rgb[1], 6) << 5 | q(rgb[2], 5)
+            crate::shade::rgb255_to_rgb565(rgb)
         });
         (attr, color)
     }

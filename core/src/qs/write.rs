@@ -498,11 +498,6 @@ fn quantize_sphere(map: &[u16], rel: [f64; 3], rr: f64) -> (u16, [f64; 3], f64) 
     ((SPHERE_COUNT - 1) as u16, [0.0; 3], 1.0)
 }
 
-fn rgb565(c: [f64; 3]) -> u16 {
-    let q = |v: f64, max: f64| (v / 255.0 * max).round().clamp(0.0, max) as u16;
-    q(c[0], 31.0) << 11 | q(c[1], 63.0) << 5 | q(c[2], 31.0)
-}
-
 /// Rounds `x` to an `f32` no smaller than it.
 fn f32_up(x: f64) -> f32 {
     let f = x as f32;
@@ -568,7 +563,11 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
     let depth = b.depth;
     let mut nodes = b.nodes;
     for (n, rgb) in nodes.iter_mut().zip(&b.rgb) {
-        n.color = if color { rgb565(*rgb) } else { 0 };
+        n.color = if color {
+            crate::shade::rgb255_to_rgb565(*rgb)
+        } else {
+            0
+        };
     }
 
     // Quantize top-down against the decoded parents.
