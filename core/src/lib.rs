@@ -28,6 +28,7 @@ macro_rules! count {
     };
 }
 
+pub mod bytes;
 pub mod camera;
 pub mod crc;
 pub mod fixed;

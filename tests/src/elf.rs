@@ -37,13 +37,7 @@ pub struct Elf {
     symbols: Vec<(String, u32)>,
 }
 
-fn u16_at(b: &[u8], off: usize) -> Option<u16> {
-    Some(u16::from_le_bytes(b.get(off..off + 2)?.try_into().ok()?))
-}
-
-fn u32_at(b: &[u8], off: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(b.get(off..off + 4)?.try_into().ok()?))
-}
+use pocketsplat_core::bytes::le::{u16_at, u32_at};
 
 fn cstr_at(b: &[u8], off: usize) -> Option<String> {
     let rest = b.get(off..)?;

@@ -193,43 +193,8 @@ impl core::fmt::Display for QsError {
     }
 }
 
-/// Byte order of a file's multi-byte fields.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ByteOrder {
-    /// As QSplat 1.0 specifies and pocketsplat writes.
-    Big,
-    /// As QSplat 1.0 wrote on builds that did not swap bytes.
-    Little,
-}
-
-// ---- raw layer: bounds-checked reads in a byte order ------------------------------------------------
-
-fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
-    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
-}
-
-impl ByteOrder {
-    #[inline(always)]
-    fn u16(self, bytes: &[u8], at: usize) -> Option<u16> {
-        let b = take::<2>(bytes, at)?;
-        Some(match self {
-            ByteOrder::Big => u16::from_be_bytes(b),
-            ByteOrder::Little => u16::from_le_bytes(b),
-        })
-    }
-    #[inline(always)]
-    fn u32(self, bytes: &[u8], at: usize) -> Option<u32> {
-        let b = take::<4>(bytes, at)?;
-        Some(match self {
-            ByteOrder::Big => u32::from_be_bytes(b),
-            ByteOrder::Little => u32::from_le_bytes(b),
-        })
-    }
-    fn f32(self, bytes: &[u8], at: usize) -> Option<f32> {
-        self.u32(bytes, at).map(f32::from_bits)
-    }
-}
+use crate::bytes::take;
+pub use crate::bytes::ByteOrder;
 
 // ---- typed layer --------------------------------------------------------------------------------------
 

@@ -238,25 +238,35 @@ impl core::fmt::Display for PackError {
     }
 }
 
-// ---- raw layer: bounds-checked little-endian reads -------------------------------------------------
+// ---- raw layer: crate::bytes, on the ranges `Pack::open` proves ---------------------------------------
 
-fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
-    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
+use crate::bytes::{le, take};
+
+// `Pack::open` first checks that the file holds its header, then that it holds the tables the header
+// declares; every read below lies inside one or the other, so none can miss. The header's checks and
+// `Check` turn a miss into an error all the same; the accessors behind a validated `Pack` have nothing
+// to report, and a miss (a bug) reads as zero, never NaN, and fails debug builds.
+fn field<T: Default>(v: Option<T>) -> T {
+    debug_assert!(
+        v.is_some(),
+        "a pack field outside the ranges Pack::open checked"
+    );
+    v.unwrap_or_default()
 }
 fn u8_at(bytes: &[u8], at: usize) -> u8 {
-    bytes.get(at).copied().unwrap_or(0)
+    field(le::u8_at(bytes, at))
 }
 fn u16_at(bytes: &[u8], at: usize) -> u16 {
-    take(bytes, at).map_or(0, u16::from_le_bytes)
+    field(le::u16_at(bytes, at))
 }
 fn u32_at(bytes: &[u8], at: usize) -> u32 {
-    take(bytes, at).map_or(0, u32::from_le_bytes)
+    field(le::u32_at(bytes, at))
 }
 fn f32_at(bytes: &[u8], at: usize) -> f32 {
-    take(bytes, at).map_or(f32::NAN, f32::from_le_bytes)
+    field(le::f32_at(bytes, at))
 }
 fn f64_at(bytes: &[u8], at: usize) -> f64 {
-    take(bytes, at).map_or(f64::NAN, f64::from_le_bytes)
+    field(le::f64_at(bytes, at))
 }
 fn name_at(bytes: &[u8], at: usize) -> &str {
     let raw = bytes.get(at..at + NAME_BYTES).unwrap_or(&[]);
@@ -277,20 +287,14 @@ impl Check<'_> {
         }
     }
     fn f64_in(&self, at: usize, lo: f64, hi: f64) -> Result<f64, PackError> {
-        let v = f64_at(self.0, at);
-        if v.is_finite() && v >= lo && v <= hi {
-            Ok(v)
-        } else {
-            Err(PackError::BadNumber { offset: at as u32 })
-        }
+        le::f64_at(self.0, at)
+            .filter(|v| v.is_finite() && (lo..=hi).contains(v))
+            .ok_or(PackError::BadNumber { offset: at as u32 })
     }
     fn f32_in(&self, at: usize, lo: f32, hi: f32) -> Result<f32, PackError> {
-        let v = f32_at(self.0, at);
-        if v.is_finite() && v >= lo && v <= hi {
-            Ok(v)
-        } else {
-            Err(PackError::BadNumber { offset: at as u32 })
-        }
+        le::f32_at(self.0, at)
+            .filter(|v| v.is_finite() && (lo..=hi).contains(v))
+            .ok_or(PackError::BadNumber { offset: at as u32 })
     }
     fn name(&self, at: usize, non_empty: bool) -> Result<(), PackError> {
         let raw = &self.0[at..at + NAME_BYTES];

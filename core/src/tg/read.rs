@@ -177,26 +177,8 @@ impl core::fmt::Display for TgError {
 /// Largest `|corner coordinate| / side` of a root cube (2^32).
 pub const MAX_CORNER_SIDES: f64 = 4_294_967_296.0;
 
-// ---- raw layer: bounds-checked little-endian reads -------------------------------------------------
-
-fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
-    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
-}
-fn u8_at(bytes: &[u8], at: usize) -> Option<u8> {
-    bytes.get(at).copied()
-}
-fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
-    take(bytes, at).map(u16::from_le_bytes)
-}
-fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
-    take(bytes, at).map(u32::from_le_bytes)
-}
-fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
-    take(bytes, at).map(f32::from_le_bytes)
-}
-fn f64_at(bytes: &[u8], at: usize) -> Option<f64> {
-    take(bytes, at).map(f64::from_le_bytes)
-}
+use crate::bytes::le::{f32_at, f64_at, u16_at, u32_at, u8_at};
+use crate::bytes::take;
 
 /// The fixed fields of a `.tg` header.
 #[derive(Clone, Copy, Debug, PartialEq)]
