@@ -2,15 +2,81 @@
 //!
 //! Models are Y-up. The camera orbits the centre of the model's bounding sphere (the sphere around its
 //! bounding box): azimuth `az` degrees around +Y from +Z towards +X, elevation `el` degrees up,
-//! distance `dist` in bounding-sphere radii, looking at the centre. The image is 240 × 320 (portrait);
-//! pixel `(i, j)` covers `[i, i+1) × [j, j+1)` with `j` growing downwards.
+//! distance `dist` in bounding-sphere radii, looking at the centre. The image is a [`Viewport`], 240 ×
+//! 320 (portrait) unless the caller's buffers say otherwise; pixel `(i, j)` covers `[i, i+1) × [j, j+1)`
+//! with `j` growing downwards.
 //!
 //! Only `libm` functions and IEEE-exact operations are used, so x86 and ARM compute the same bits.
 
-/// Framebuffer width in pixels.
+/// Width of the reference framebuffer in pixels ([`Viewport::DEFAULT`]).
 pub const WIDTH: usize = 240;
-/// Framebuffer height in pixels.
+/// Height of the reference framebuffer in pixels ([`Viewport::DEFAULT`]).
 pub const HEIGHT: usize = 320;
+
+/// The size of the image a camera projects onto, pixels: the caller's buffers' size.
+///
+/// Each side is 1 to [`Viewport::MAX_SIDE`]; the frames' integer range is shared between the
+/// image's larger side and the depth (`max(|X|, |Y|) + max(width, height)·|W| ≤ 2³⁰`, `fixed.rs`),
+/// so a larger image has a little less depth precision, and 240 × 320 draws what it always drew.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Viewport {
+    /// Width, pixels.
+    pub width: u16,
+    /// Height, pixels.
+    pub height: u16,
+}
+
+impl Viewport {
+    /// The reference 240 × 320 portrait frame.
+    pub const DEFAULT: Viewport = Viewport {
+        width: WIDTH as u16,
+        height: HEIGHT as u16,
+    };
+    /// The largest side a viewport may have, pixels.
+    pub const MAX_SIDE: u16 = 2048;
+
+    /// A viewport of `width × height`, or `None` when a side is 0 or above [`Viewport::MAX_SIDE`].
+    pub const fn new(width: u32, height: u32) -> Option<Self> {
+        if width == 0
+            || height == 0
+            || width > Self::MAX_SIDE as u32
+            || height > Self::MAX_SIDE as u32
+        {
+            return None;
+        }
+        Some(Viewport {
+            width: width as u16,
+            height: height as u16,
+        })
+    }
+
+    /// Whether both sides are within 1..=[`Viewport::MAX_SIDE`].
+    pub const fn is_valid(self) -> bool {
+        Self::new(self.width as u32, self.height as u32).is_some()
+    }
+
+    /// The larger side, pixels (the frames' range bound, above).
+    pub fn max_side(self) -> u16 {
+        self.width.max(self.height)
+    }
+
+    /// The number of pixels.
+    pub const fn pixels(self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// The centre of the image, pixels.
+    pub fn center(self) -> (f64, f64) {
+        (f64::from(self.width) / 2.0, f64::from(self.height) / 2.0)
+    }
+}
+
+impl Default for Viewport {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
 /// Default vertical field of view, degrees.
 pub const DEFAULT_FOV_DEG: f64 = 45.0;
 /// Near plane distance, in bounding-sphere radii.
@@ -97,7 +163,7 @@ impl Sphere {
     }
 }
 
-/// A perspective camera for the 240 × 320 framebuffer.
+/// A perspective camera for an image of [`Camera::viewport`] pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Eye position, model units.
@@ -108,14 +174,17 @@ pub struct Camera {
     pub up: Vec3,
     /// Unit viewing direction.
     pub forward: Vec3,
-    /// Focal length in pixels: `(HEIGHT / 2) / tan(fov / 2)`.
+    /// Focal length in pixels: `(height / 2) / tan(fov / 2)`.
     pub focal_px: f64,
     /// Near plane distance, model units.
     pub near: f64,
+    /// The image the camera projects onto.
+    pub viewport: Viewport,
 }
 
 impl Camera {
-    /// The orbit camera of `view` around `sphere`, with vertical field of view `fov_deg`.
+    /// The orbit camera of `view` around `sphere`, with vertical field of view `fov_deg`, for the
+    /// reference 240 × 320 image ([`Camera::for_viewport`] gives it another).
     pub fn orbit(sphere: Sphere, view: View, fov_deg: f64) -> Self {
         let dir = direction(view.az_deg, view.el_deg);
         let eye = add(sphere.center, scale(dir, view.dist * sphere.radius));
@@ -138,6 +207,21 @@ impl Camera {
             forward,
             focal_px,
             near: NEAR_RADII * sphere.radius,
+            viewport: Viewport::DEFAULT,
+        }
+    }
+
+    /// The same camera for an image of `viewport`: the vertical field of view is kept (the focal
+    /// length scales with the height), the image centre moves to the new centre. The camera itself
+    /// when the viewport is its own, bit for bit.
+    pub fn for_viewport(&self, viewport: Viewport) -> Self {
+        if viewport == self.viewport {
+            return *self;
+        }
+        Self {
+            focal_px: self.focal_px * f64::from(viewport.height) / f64::from(self.viewport.height),
+            viewport,
+            ..*self
         }
     }
 
@@ -158,11 +242,82 @@ impl Camera {
 
     /// Screen position of camera-space coordinates with `z > 0`.
     pub fn screen(&self, x: f64, y: f64, z: f64) -> Vec3 {
+        let (cx, cy) = self.viewport.center();
+        [cx + self.focal_px * x / z, cy - self.focal_px * y / z, z]
+    }
+}
+
+/// Bound on `max(|X|, |Y|) + max(width, height)·|W|` over everything a frame may draw, in the
+/// frame's integer units (`fixed.rs`): a per-frame scale brings the [`Projection`] within it.
+pub const PROJECTED_RANGE: f64 = (1u64 << 30) as f64;
+
+/// The projection of a placed model's points onto a camera's image, in homogeneous pixels: `(X, Y,
+/// W) = rows · [p; 1]` for a model point `p`, with `X/W`, `Y/W` pixels and `W` the camera depth in
+/// world units. Linear in `p`, so that a frame turns it into tables a traversal only adds (Duguet
+/// §5.1): the set-up every format's frame starts from, in one place.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    /// The rows of `X`, `Y` and `W`: three coefficients of the model point, then the constant.
+    pub rows: [[f64; 4]; 3],
+    /// The image.
+    pub viewport: Viewport,
+}
+
+impl Projection {
+    /// The projection of a model placed by `placement` seen by `camera`, or `None` when the camera
+    /// or the placement is not finite and positive (focal length, scale) or the viewport is empty.
+    pub fn new(camera: &Camera, placement: &Placement) -> Option<Self> {
+        if !(placement.scale > 0.0
+            && placement.scale.is_finite()
+            && camera.focal_px.is_finite()
+            && camera.focal_px > 0.0
+            && camera.viewport.is_valid())
+        {
+            return None;
+        }
+        let f = camera.focal_px;
+        let (cx, cy) = camera.viewport.center();
+        // Rows of (X, Y, W) as functions of the world point minus the eye.
+        let rx = add(scale(camera.right, f), scale(camera.forward, cx));
+        let ry = add(scale(camera.up, -f), scale(camera.forward, cy));
+        let rw = camera.forward;
+        // Composed with the placement: world = R·(s·p) + t, so the model-space row is s·Rᵀ·row and
+        // the constant is row·(t − eye).
+        let t_eye = sub(placement.translation, camera.eye);
+        let model_row = |r: Vec3| -> [f64; 4] {
+            let m = scale(placement.to_model_dir(r), placement.scale);
+            [m[0], m[1], m[2], dot(r, t_eye)]
+        };
+        Some(Self {
+            rows: [model_row(rx), model_row(ry), model_row(rw)],
+            viewport: camera.viewport,
+        })
+    }
+
+    /// Row `k` (0: `X`, 1: `Y`, 2: `W`) without its constant.
+    pub fn row(&self, k: usize) -> Vec3 {
+        let r = &self.rows[k];
+        [r[0], r[1], r[2]]
+    }
+
+    /// `(X, Y, W)` of model point `p`.
+    pub fn eval(&self, p: Vec3) -> Vec3 {
+        core::array::from_fn(|k| dot(self.row(k), p) + self.rows[k][3])
+    }
+
+    /// The linear parts of the right and bottom plane functions, `width·W − X` and `height·W − Y`
+    /// (a point is inside the image where `X`, `Y` and both are at least 0).
+    pub fn right_bottom(&self) -> [Vec3; 2] {
+        let w = self.row(2);
         [
-            WIDTH as f64 / 2.0 + self.focal_px * x / z,
-            HEIGHT as f64 / 2.0 - self.focal_px * y / z,
-            z,
+            sub(scale(w, f64::from(self.viewport.width)), self.row(0)),
+            sub(scale(w, f64::from(self.viewport.height)), self.row(1)),
         ]
+    }
+
+    /// The image's larger side, the weight of `|W|` in the range bound ([`PROJECTED_RANGE`]).
+    pub fn side(&self) -> f64 {
+        f64::from(self.viewport.max_side())
     }
 }
 

@@ -45,4 +45,31 @@ impl FileFormat {
             None
         }
     }
+
+    /// Every format.
+    pub const ALL: [FileFormat; 3] = [FileFormat::TriGrid, FileFormat::QSplat, FileFormat::Pack];
+
+    /// `tg`, `qsplat` or `pack`: the names of `pocketsplat bake --format` and of the firmware's
+    /// frame lines.
+    pub fn name(self) -> &'static str {
+        match self {
+            FileFormat::TriGrid => "tg",
+            FileFormat::QSplat => "qsplat",
+            FileFormat::Pack => "pack",
+        }
+    }
+
+    /// The format called `name` ([`FileFormat::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// The cargo feature of `pocketsplat-core` that reads this format.
+    pub fn feature(self) -> &'static str {
+        match self {
+            FileFormat::TriGrid => "trigrid",
+            FileFormat::QSplat => "qsplat",
+            FileFormat::Pack => "scene",
+        }
+    }
 }

@@ -38,6 +38,7 @@ pub mod normal;
 #[cfg(feature = "qsplat")]
 pub mod qs;
 pub mod raster;
+pub mod render;
 #[cfg(feature = "scene")]
 pub mod scene;
 pub mod shade;
@@ -64,3 +65,6 @@ pub(crate) mod testing {
 
 #[cfg(feature = "bake")]
 pub mod bake;
+
+pub use camera::{Camera, View, Viewport};
+pub use render::{render, Model, RenderOptions, Target};

@@ -1,8 +1,10 @@
-//! The raster: a 240 × 320 RGB565 framebuffer with a 16-bit depth buffer, splat kernels with a depth
-//! test, and an embedded-graphics [`DrawTarget`] so text and HUD overlays use the ecosystem.
+//! The raster: RGB565 pixels with a 16-bit depth buffer ([`DepthTarget`]: the project's
+//! [`Framebuffer`], 240 × 320 by default, or any display as a [`DisplayTarget`]), splat kernels
+//! with a depth test, and the framebuffer as an embedded-graphics [`DrawTarget`] so text and HUD
+//! overlays use the ecosystem.
 //!
-//! The buffers are borrowed (`&mut [[u16; W]; H]`) so that firmware can place them in statics and the
-//! desktop on the heap; nothing here allocates.
+//! The buffers are borrowed (`&mut [[u16; W]; H]`, or a display and a depth slice) so that firmware
+//! can place them in statics and the desktop on the heap; nothing here allocates.
 #![deny(clippy::float_arithmetic)]
 
 use core::convert::Infallible;
@@ -16,6 +18,7 @@ use embedded_graphics_core::prelude::{PixelColor, RawData};
 use embedded_graphics_core::primitives::Rectangle;
 use embedded_graphics_core::Pixel;
 
+use crate::camera::Viewport;
 use crate::fixed::{ONE_PX_Q8, SUBPIXEL_BITS};
 
 /// Farthest depth: the value the depth buffer is cleared to.
@@ -49,7 +52,133 @@ pub struct Splat {
     pub color: u16,
 }
 
-/// A framebuffer and depth buffer of `W × H` pixels.
+/// Pixels with a 16-bit depth buffer: what a splat is drawn into.
+///
+/// Implemented by [`Framebuffer`] (the project's own buffers, their size known at compile time: the
+/// device's fast path) and [`DisplayTarget`] (any embedded-graphics display with a depth buffer the
+/// caller owns). Splats are rasterised once, by [`draw_splat`] and [`draw_pixel`], for every
+/// implementation: only where a pixel lands differs.
+pub trait DepthTarget {
+    /// The size of the image.
+    fn viewport(&self) -> Viewport;
+
+    /// Clears colour to `background` and depth to [`DEPTH_FAR`].
+    fn clear(&mut self, background: u16);
+
+    /// Writes `color()` to pixel `(x, y)` when `depth` is nearer than the depth there (and `depth`
+    /// there); returns 1 if written. `color` is asked for only then. `(x, y)` is inside the
+    /// viewport (the caller clipped it).
+    fn put(&mut self, x: usize, y: usize, depth: u16, color: impl FnOnce() -> u16) -> u32;
+
+    /// [`DepthTarget::put`] of `color` to pixels `x0..x1` of row `y` (inside the viewport,
+    /// `x0 < x1`); returns how many were written.
+    #[inline(always)]
+    fn put_span(&mut self, y: usize, x0: usize, x1: usize, depth: u16, color: u16) -> u32 {
+        (x0..x1).map(|x| self.put(x, y, depth, || color)).sum()
+    }
+}
+
+/// Draws a splat with a depth test into `target`; returns the number of pixels written. Pixels are
+/// those whose centres fall inside the kernel (a square of side `size_q8`, or a disc of that
+/// diameter); unless `exact`, a splat that contains no pixel centre writes the pixel under its
+/// centre.
+///
+/// A square splat of at most two pixels (nearly all of a frame at a 1 px cutoff) is drawn inline
+/// here; larger and round ones by a loop out of line.
+#[inline(always)]
+pub fn draw_splat<T: DepthTarget + ?Sized>(
+    target: &mut T,
+    s: &Splat,
+    kernel: Kernel,
+    exact: bool,
+) -> u32 {
+    let size = s.size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8);
+    let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
+    if size > 2 * ONE_PX_Q8 || round {
+        return splat_area(target, *s, size, kernel, exact);
+    }
+    // At most two pixel centres per axis, and usually one pixel.
+    let (x0, x1, y0, y1) = footprint(s, size, exact);
+    let (x, y) = if x1 == x0 + 1 && y1 == y0 + 1 {
+        (x0, y0)
+    } else if x1 > x0 && y1 > y0 {
+        return splat_area(target, *s, size, kernel, exact);
+    } else if exact {
+        return 0;
+    } else {
+        (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS)
+    };
+    draw_pixel(target, x, y, s.depth, || s.color)
+}
+
+/// Writes pixel `(x, y)` (nothing off the image) with a depth test; returns 1 if written. `color`
+/// is asked for only when the pixel passes the depth test, so that a traversal which has already
+/// found a splat's one pixel ([`exact_footprint`]) shades only what shows.
+#[inline(always)]
+pub fn draw_pixel<T: DepthTarget + ?Sized>(
+    target: &mut T,
+    x: i32,
+    y: i32,
+    depth: u16,
+    color: impl FnOnce() -> u16,
+) -> u32 {
+    let v = target.viewport();
+    // One unsigned comparison per axis also rejects negative coordinates.
+    if x as u32 >= u32::from(v.width) || y as u32 >= u32::from(v.height) {
+        return 0;
+    }
+    target.put(x as usize, y as usize, depth, color)
+}
+
+/// [`draw_splat`] of a splat of `size` (clamped) larger than a pixel, or round and exact.
+#[inline(never)]
+fn splat_area<T: DepthTarget + ?Sized>(
+    target: &mut T,
+    s: Splat,
+    size: i32,
+    kernel: Kernel,
+    exact: bool,
+) -> u32 {
+    let (mut x0, mut x1, mut y0, mut y1) = footprint(&s, size, exact);
+    if x1 <= x0 || y1 <= y0 {
+        if exact {
+            return 0;
+        }
+        (x0, y0) = (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS);
+        (x1, y1) = (x0 + 1, y0 + 1);
+    }
+    let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
+    let half = half_side(size, exact);
+    let v = target.viewport();
+    let (x0, x1) = (x0.max(0), x1.min(i32::from(v.width)));
+    let (y0, y1) = (y0.max(0), y1.min(i32::from(v.height)));
+    let mut written = 0;
+    if !round {
+        // A square: its rows.
+        if x1 <= x0 {
+            return 0;
+        }
+        for y in y0..y1 {
+            written += target.put_span(y as usize, x0 as usize, x1 as usize, s.depth, s.color);
+        }
+        return written;
+    }
+    let r2 = i64::from(half) * i64::from(half);
+    for y in y0..y1 {
+        let dy = i64::from((y << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.y_q8);
+        for x in x0..x1 {
+            let dx = i64::from((x << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.x_q8);
+            if dx * dx + dy * dy > r2 {
+                continue;
+            }
+            written += target.put(x as usize, y as usize, s.depth, || s.color);
+        }
+    }
+    written
+}
+
+/// A framebuffer and depth buffer of `W × H` pixels, borrowed: the project's own buffers, whose
+/// size the compiler knows (the device's fast path: every index and clip is a constant).
 pub struct Framebuffer<'a, const W: usize = 240, const H: usize = 320> {
     color: &'a mut [[u16; W]; H],
     depth: &'a mut [[u16; W]; H],
@@ -80,50 +209,37 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
     /// CRC-32 of the colour buffer (pixels little-endian, row by row): the frame checksum that host
     /// and firmware compare.
     pub fn crc(&self) -> u32 {
-        let mut c = crate::crc::Crc32::new();
-        for row in self.color.iter() {
-            c.update_u16_le(row);
-        }
-        c.finish()
+        crc565(self.color.as_flattened())
     }
 
-    /// Draws a splat with a depth test; returns the number of pixels written. Pixels are those whose
-    /// centres fall inside the kernel (a square of side `size_q8`, or a disc of that diameter);
-    /// unless `exact`, a splat that contains no pixel centre writes the pixel under its centre.
-    ///
-    /// A square splat of at most two pixels (nearly all of a frame at a 1 px cutoff) is drawn
-    /// inline here; larger and round ones by a loop out of line.
+    /// [`draw_splat`] into this framebuffer.
     #[inline(always)]
     pub fn splat(&mut self, s: &Splat, kernel: Kernel, exact: bool) -> u32 {
-        let size = s.size_q8.clamp(1, MAX_SPLAT_PX * ONE_PX_Q8);
-        let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
-        if size > 2 * ONE_PX_Q8 || round {
-            return self.splat_area(*s, size, kernel, exact);
-        }
-        // At most two pixel centres per axis, and usually one pixel.
-        let (x0, x1, y0, y1) = footprint(s, size, exact);
-        let (x, y) = if x1 == x0 + 1 && y1 == y0 + 1 {
-            (x0, y0)
-        } else if x1 > x0 && y1 > y0 {
-            return self.splat_area(*s, size, kernel, exact);
-        } else if exact {
-            return 0;
-        } else {
-            (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS)
-        };
-        self.pixel(x, y, s.depth, || s.color)
+        draw_splat(self, s, kernel, exact)
     }
 
-    /// Writes pixel `(x, y)` (nothing off the screen) with a depth test; returns 1 if written.
-    /// `color` is asked for only when the pixel passes the depth test, so that a traversal which
-    /// has already found a splat's one pixel ([`exact_footprint`]) shades only what shows.
+    /// [`draw_pixel`] into this framebuffer.
     #[inline(always)]
     pub fn pixel(&mut self, x: i32, y: i32, depth: u16, color: impl FnOnce() -> u16) -> u32 {
-        // One unsigned comparison per axis also rejects negative coordinates.
-        if x as u32 >= W as u32 || y as u32 >= H as u32 {
-            return 0;
+        draw_pixel(self, x, y, depth, color)
+    }
+}
+
+impl<const W: usize, const H: usize> DepthTarget for Framebuffer<'_, W, H> {
+    #[inline(always)]
+    fn viewport(&self) -> Viewport {
+        Viewport {
+            width: W as u16,
+            height: H as u16,
         }
-        let (x, y) = (x as usize, y as usize);
+    }
+
+    fn clear(&mut self, background: u16) {
+        Framebuffer::clear(self, background);
+    }
+
+    #[inline(always)]
+    fn put(&mut self, x: usize, y: usize, depth: u16, color: impl FnOnce() -> u16) -> u32 {
         let d = &mut self.depth[y][x];
         if depth < *d {
             *d = depth;
@@ -134,73 +250,126 @@ impl<'a, const W: usize, const H: usize> Framebuffer<'a, W, H> {
         }
     }
 
-    /// [`Framebuffer::splat`] of a splat of `size` (clamped) larger than a pixel, or round and
-    /// exact.
-    #[inline(never)]
-    fn splat_area(&mut self, s: Splat, size: i32, kernel: Kernel, exact: bool) -> u32 {
-        let (mut x0, mut x1, mut y0, mut y1) = footprint(&s, size, exact);
-        if x1 <= x0 || y1 <= y0 {
-            if exact {
-                return 0;
-            }
-            (x0, y0) = (s.x_q8 >> SUBPIXEL_BITS, s.y_q8 >> SUBPIXEL_BITS);
-            (x1, y1) = (x0 + 1, y0 + 1);
-        }
-        let round = kernel == Kernel::Round && (exact || size > ONE_PX_Q8);
-        let half = half_side(size, exact);
-        let (x0, x1) = (x0.max(0), x1.min(W as i32));
-        let (y0, y1) = (y0.max(0), y1.min(H as i32));
+    /// Most rows of a square splat are one or two pixels long (a splat of 2 px or less covering two
+    /// pixel centres), which the match writes without a loop.
+    #[inline(always)]
+    fn put_span(&mut self, y: usize, x0: usize, x1: usize, depth: u16, color: u16) -> u32 {
         let mut written = 0;
-        if !round {
-            // A square: its rows, most of them one or two pixels long (a splat of 2 px or less
-            // covering two pixel centres), which the match writes without a loop.
-            if x1 <= x0 {
-                return 0;
+        let (crow, drow) = (&mut self.color[y][x0..x1], &mut self.depth[y][x0..x1]);
+        let mut put = |c: &mut u16, d: &mut u16| {
+            if depth < *d {
+                *d = depth;
+                *c = color;
+                written += 1;
             }
-            let (xa, xb) = (x0 as usize, x1 as usize);
-            for y in y0..y1 {
-                let (crow, drow) = (
-                    &mut self.color[y as usize][xa..xb],
-                    &mut self.depth[y as usize][xa..xb],
-                );
-                let mut put = |c: &mut u16, d: &mut u16| {
-                    if s.depth < *d {
-                        *d = s.depth;
-                        *c = s.color;
-                        written += 1;
-                    }
-                };
-                match (crow, drow) {
-                    ([c], [d]) => put(c, d),
-                    ([c0, c1], [d0, d1]) => {
-                        put(c0, d0);
-                        put(c1, d1);
-                    }
-                    (crow, drow) => crow.iter_mut().zip(drow).for_each(|(c, d)| put(c, d)),
-                }
+        };
+        match (crow, drow) {
+            ([c], [d]) => put(c, d),
+            ([c0, c1], [d0, d1]) => {
+                put(c0, d0);
+                put(c1, d1);
             }
-            return written;
-        }
-        let r2 = i64::from(half) * i64::from(half);
-        for y in y0..y1 {
-            let (crow, drow) = (&mut self.color[y as usize], &mut self.depth[y as usize]);
-            let dy = i64::from((y << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.y_q8);
-            for x in x0..x1 {
-                if round {
-                    let dx = i64::from((x << SUBPIXEL_BITS) + ONE_PX_Q8 / 2 - s.x_q8);
-                    if dx * dx + dy * dy > r2 {
-                        continue;
-                    }
-                }
-                let d = &mut drow[x as usize];
-                if s.depth < *d {
-                    *d = s.depth;
-                    crow[x as usize] = s.color;
-                    written += 1;
-                }
-            }
+            (crow, drow) => crow.iter_mut().zip(drow).for_each(|(c, d)| put(c, d)),
         }
         written
+    }
+}
+
+/// CRC-32 of RGB565 pixels, little-endian, in order: the frame checksum host and firmware compare.
+pub fn crc565(pixels: &[u16]) -> u32 {
+    let mut c = crate::crc::Crc32::new();
+    c.update_u16_le(pixels);
+    c.finish()
+}
+
+/// Any embedded-graphics display as a [`DepthTarget`], with a depth buffer the caller owns: a
+/// frame's pixels go to the display as they pass the depth test, one [`DrawTarget::draw_iter`] per
+/// pixel (a display that keeps its own framebuffer in RAM takes them at memory speed; over a slow
+/// bus, drawing into a [`Framebuffer`] and sending it in one transfer is faster).
+///
+/// The viewport is the display's bounding box (its size from the display, pixels drawn relative to
+/// its top-left corner).
+///
+/// ```
+/// use pocketsplat_core::raster::{DisplayTarget, DepthTarget};
+/// # use core::convert::Infallible;
+/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
+/// # struct Panel;
+/// # impl OriginDimensions for Panel { fn size(&self) -> Size { Size::new(128, 160) } }
+/// # impl DrawTarget for Panel {
+/// #     type Color = Rgb565;
+/// #     type Error = Infallible;
+/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, _: I) -> Result<(), Infallible> { Ok(()) }
+/// # }
+/// let mut panel = Panel;
+/// let mut depth = vec![0u16; 128 * 160];
+/// let target = DisplayTarget::new(&mut panel, &mut depth).expect("a depth value per pixel");
+/// assert_eq!((target.viewport().width, target.viewport().height), (128, 160));
+/// ```
+pub struct DisplayTarget<'a, D> {
+    display: &'a mut D,
+    depth: &'a mut [u16],
+    viewport: Viewport,
+    origin: Point,
+}
+
+impl<'a, D: DrawTarget<Color = Rgb565>> DisplayTarget<'a, D> {
+    /// `display` with `depth` as its depth buffer (row by row, at least one value per pixel of the
+    /// display's bounding box); `None` when the buffer is too small or the display's size is not a
+    /// [`Viewport`].
+    pub fn new(display: &'a mut D, depth: &'a mut [u16]) -> Option<Self> {
+        let area = display.bounding_box();
+        let viewport = Viewport::new(area.size.width, area.size.height)?;
+        if depth.len() < viewport.pixels() {
+            return None;
+        }
+        Some(Self {
+            display,
+            depth,
+            viewport,
+            origin: area.top_left,
+        })
+    }
+
+    /// The display.
+    pub fn display(&mut self) -> &mut D {
+        self.display
+    }
+
+    /// The depth buffer (row by row, the viewport's width per row).
+    pub fn depth(&self) -> &[u16] {
+        &self.depth[..self.viewport.pixels()]
+    }
+}
+
+impl<D: DrawTarget<Color = Rgb565>> DepthTarget for DisplayTarget<'_, D> {
+    fn viewport(&self) -> Viewport {
+        self.viewport
+    }
+
+    fn clear(&mut self, background: u16) {
+        fill(&mut self.depth[..self.viewport.pixels()], DEPTH_FAR);
+        let area = Rectangle::new(
+            self.origin,
+            Size::new(self.viewport.width.into(), self.viewport.height.into()),
+        );
+        // A display's error cannot stop a frame: the pixel is lost, as on a flaky bus.
+        let _ = self
+            .display
+            .fill_solid(&area, Rgb565::from(RawU16::new(background)));
+    }
+
+    #[inline]
+    fn put(&mut self, x: usize, y: usize, depth: u16, color: impl FnOnce() -> u16) -> u32 {
+        let d = &mut self.depth[y * usize::from(self.viewport.width) + x];
+        if depth >= *d {
+            return 0;
+        }
+        *d = depth;
+        let at = self.origin + Point::new(x as i32, y as i32);
+        let c = Rgb565::from(RawU16::new(color()));
+        let _ = self.display.draw_iter(core::iter::once(Pixel(at, c)));
+        1
     }
 }
 

@@ -1295,9 +1295,10 @@ mod order_tests {
     use super::*;
     use crate::bake::{bake_grid, BakeOptions, TriMesh};
     use crate::camera::{Camera, View, STANDARD_VIEWS};
+    use crate::render::RenderOptions;
     use crate::splat::SampleSplat;
     use crate::tg::write::write_tg;
-    use crate::tg::{RenderOptions, Verify};
+    use crate::tg::Verify;
     use std::vec::Vec;
 
     /// A bumpy height field, which shadows itself under an oblique light.

@@ -2,7 +2,7 @@
 //! change (docs/ARCHITECTURE.md "The way data flows").
 #![deny(clippy::float_arithmetic)]
 
-use crate::raster::{Framebuffer, Kernel, Splat};
+use crate::raster::{draw_pixel, draw_splat, DepthTarget, Kernel, Splat};
 use crate::shade::ShadingTable;
 
 /// A splat as a traversal emits it: screen position, size, depth and the sample's attribute.
@@ -70,19 +70,17 @@ pub struct Stats {
     pub max_level: u8,
 }
 
-/// The usual sink: shade through the table and draw into the framebuffer.
-pub struct ShadedRaster<'f, 'b, 't, const W: usize, const H: usize, const M: usize> {
-    /// The framebuffer.
-    pub fb: &'f mut Framebuffer<'b, W, H>,
+/// The usual sink: shade through the table and draw into a framebuffer or display.
+pub struct ShadedRaster<'f, 't, T: ?Sized, const M: usize> {
+    /// Where the pixels go (a [`crate::raster::Framebuffer`], a [`crate::raster::DisplayTarget`]).
+    pub fb: &'f mut T,
     /// The shading table.
     pub table: &'t ShadingTable<M>,
     /// Splat kernel.
     pub kernel: Kernel,
 }
 
-impl<const W: usize, const H: usize, const M: usize> SplatSink
-    for ShadedRaster<'_, '_, '_, W, H, M>
-{
+impl<T: DepthTarget + ?Sized, const M: usize> SplatSink for ShadedRaster<'_, '_, T, M> {
     #[inline(always)]
     fn splat(&mut self, s: &SampleSplat) {
         let color = if s.shadowed {
@@ -90,7 +88,8 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
         } else {
             self.table.color(s.attr)
         };
-        self.fb.splat(
+        draw_splat(
+            self.fb,
             &Splat {
                 x_q8: s.x_q8,
                 y_q8: s.y_q8,
@@ -111,7 +110,7 @@ impl<const W: usize, const H: usize, const M: usize> SplatSink
         }
         let table = self.table;
         // Shaded only if it passes the depth test.
-        self.fb.pixel(x, y, s.depth, || {
+        draw_pixel(self.fb, x, y, s.depth, || {
             if s.shadowed {
                 table.shadowed(s.attr)
             } else {
@@ -156,9 +155,7 @@ pub fn modulate(a: u16, b: u16) -> u16 {
 
 /// The material's shading (light, view, ambient, highlight) modulated by the sample's colour: for a
 /// coloured model, give the shading table a white material.
-impl<const W: usize, const H: usize, const M: usize> ColorSink
-    for ShadedRaster<'_, '_, '_, W, H, M>
-{
+impl<T: DepthTarget + ?Sized, const M: usize> ColorSink for ShadedRaster<'_, '_, T, M> {
     #[inline]
     fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
         let lit = if s.shadowed {
@@ -166,7 +163,8 @@ impl<const W: usize, const H: usize, const M: usize> ColorSink
         } else {
             self.table.color(s.attr)
         };
-        self.fb.splat(
+        draw_splat(
+            self.fb,
             &Splat {
                 x_q8: s.x_q8,
                 y_q8: s.y_q8,

@@ -11,7 +11,8 @@ use pocketsplat_core::camera::{Placement, View};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::NullSink;
-use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
+use pocketsplat_core::render::RenderOptions;
+use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_with, FrameBuffers, Settings, ShadowMode};
 
 /// Smallest block (512 B) keeps the files, and so the fuzzer's inputs, small.
@@ -268,7 +269,7 @@ pub fn qs_base_files() -> &'static [Vec<u8>] {
 /// the real raster, checking that no node is visited twice.
 pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
     use pocketsplat_core::camera::{Camera, Sphere};
-    use pocketsplat_core::qs::{render_qs, QSplat, QsFrame, QsRenderOptions};
+    use pocketsplat_core::qs::{render_qs, QSplat, QsFrame};
     use pocketsplat_core::raster::Framebuffer;
     use pocketsplat_core::splat::ShadedRaster;
     let Ok(file) = QSplat::open(bytes) else {
@@ -279,10 +280,10 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
     for look in looks {
         let s = look.settings();
         let cam = Camera::orbit(Sphere::from_bounds(file.bounds()), s.view, s.fov_deg);
-        let opts = QsRenderOptions {
+        let opts = RenderOptions {
             cutoff_px: s.cutoff_px,
             kernel: s.kernel,
-            ..QsRenderOptions::default()
+            ..RenderOptions::default()
         };
         let Ok(frame) = QsFrame::new(&file, &Placement::IDENTITY, &cam, &opts) else {
             continue;
@@ -371,7 +372,7 @@ pub fn pack_base_files() -> &'static [Vec<u8>] {
 /// renders what opens from its first view and its path's middle, without shadows and with the
 /// pack's, checking the traversal's bounds per object.
 pub fn pack_open_and_render(bytes: &[u8]) {
-    use pocketsplat_core::scene::{render_scene, Pack, ShadowMode, Scene, SceneOptions};
+    use pocketsplat_core::scene::{render_scene, Pack, ShadowMode, Scene};
     let Ok(pack) = Pack::open(bytes) else {
         return;
     };
@@ -390,9 +391,9 @@ pub fn pack_open_and_render(bytes: &[u8]) {
             .chain(pack.path_view(pack.path_duration() / 2.0));
         for view in views {
             let camera = scene.camera(view);
-            let of = SceneOptions::of(&pack);
+            let of = scene.options();
             for shadows in [ShadowMode::Off, of.shadows] {
-                let opts = SceneOptions {
+                let opts = RenderOptions {
                     shadows,
                     shadow_map_size: of.shadow_map_size.min(256),
                     ..of

@@ -7,8 +7,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::{Placement, STANDARD_VIEWS};
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::NullSink;
-use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
+use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 
 fn bake(rho: u8, depth: u8) -> Vec<u8> {

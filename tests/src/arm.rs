@@ -15,6 +15,7 @@ use std::sync::Mutex;
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::View;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::qs::write::QsBakeOptions;
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::scene::Scene;
@@ -26,8 +27,8 @@ use pocketsplat_pda::scene::{
     SceneTargets, SCENE_MAP_SIZE,
 };
 use pocketsplat_pda::{
-    render_standard_view, render_view, Format, FrameLine, FrameReport, FrameSpec, Model, Phase,
-    Shadows, Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
+    render_standard_view, render_view, FrameLine, FrameReport, FrameSpec, Model, Phase, Shadows,
+    Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
 };
 
 use crate::elf::{Elf, Memory};
@@ -405,12 +406,12 @@ pub fn have_qemu() -> bool {
 }
 
 /// The bunny baked at paper level 5 (tri-grid depth 6) in `target/arm/models/bunny-d6.tg`, or `None`
-/// off CI when the scan is missing ([`model`]): [`baked_bunny_as`] [`Format::TriGrid`].
+/// off CI when the scan is missing ([`model`]): [`baked_bunny_as`] [`FileFormat::TriGrid`].
 ///
 /// # Errors
 /// When the scan cannot be read or baked, or the file cannot be written.
 pub fn baked_bunny() -> Result<Option<PathBuf>> {
-    baked_bunny_as(Format::TriGrid)
+    baked_bunny_as(FileFormat::TriGrid)
 }
 
 /// The bunny baked in `format` into `target/arm/models/`: a tri-grid at paper level 5 (depth 6,
@@ -423,14 +424,14 @@ pub fn baked_bunny() -> Result<Option<PathBuf>> {
 ///
 /// # Errors
 /// When the scan cannot be read or baked, or the file cannot be written.
-pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
+pub fn baked_bunny_as(format: FileFormat) -> Result<Option<PathBuf>> {
     static BAKE: Mutex<()> = Mutex::new(());
     let Some(mesh) = model("bun_zipper.ply.gz") else {
         return Ok(None);
     };
     let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
     let (name, bytes) = match format {
-        Format::TriGrid => {
+        FileFormat::TriGrid => {
             let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
             let (_, bytes) = pocketsplat_sim::cmd::bake::bake_mesh(
                 &mesh,
@@ -440,11 +441,12 @@ pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
             )?;
             ("bunny-d6.tg", bytes)
         }
-        Format::QSplat => {
+        FileFormat::QSplat => {
             let report =
                 pocketsplat_sim::cmd::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
             ("bunny.qs", report.baked.bytes)
         }
+        FileFormat::Pack => bail!("the bunny is a model, not a scene pack"),
     };
     let out = target_dir().join("models").join(name);
     if fs::read(&out).ok().as_deref() != Some(&bytes[..]) {

@@ -12,11 +12,12 @@
 use pocketsplat_core::bake::{BakeOptions, TriMesh};
 use pocketsplat_core::camera::{Placement, View, STANDARD_VIEWS};
 use pocketsplat_core::crc::crc32;
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::NullSink;
 use pocketsplat_core::tg::write::seal;
 use pocketsplat_core::tg::{
-    render_tg, RenderOptions, TgError, TgFrame, TriGrid, Verify, CONE_SHIFT, DIRECTORY_ENTRY,
-    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAX_DEPTH,
+    render_tg, TgError, TgFrame, TriGrid, Verify, CONE_SHIFT, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
+    FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAX_DEPTH,
 };
 use pocketsplat_sim::cmd::bake::bake_mesh;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};

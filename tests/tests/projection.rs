@@ -5,8 +5,9 @@
 use pocketsplat_core::bake::{BakeOptions, TriMesh};
 use pocketsplat_core::camera::{Camera, Placement, Sphere, View, STANDARD_VIEWS};
 use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::{SampleSplat, SplatSink};
-use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
+use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
 use pocketsplat_tests::model;
 
 /// f64 centre of every cell, per level in file order (a breadth-first walk of the masks).
@@ -133,6 +134,7 @@ fn run(tg: &TriGrid<'_>, cameras: usize) -> (f64, u64) {
             cutoff_px: cutoff,
             kernel: Kernel::Square,
             backface_culling: true,
+            ..RenderOptions::default()
         };
         let frame = TgFrame::new(tg.header(), &Placement::IDENTITY, &camera, &opts).expect("frame");
         let mut check = Check {

@@ -13,12 +13,13 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use pocketsplat_core::camera::STANDARD_VIEWS;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_pda::{
-    frame_specs_for, Format, FrameReport, FrameSpec, Model, Shadows, ViewError, CUTOFFS_PX,
-    SHADOW_MAP_SIZE,
+    frame_specs_for, model_frame_specs, FrameReport, FrameSpec, Model, RenderError, Shadows,
+    CUTOFFS_PX, SHADOW_MAP_SIZE,
 };
 use pocketsplat_sim::qsplat::render_qs_frame;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
@@ -31,7 +32,7 @@ use pocketsplat_tests::arm::{
 fn bunny() -> Option<PathBuf> {
     static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
     BUNNY
-        .get_or_init(|| baked_bunny_as(Format::TriGrid).unwrap())
+        .get_or_init(|| baked_bunny_as(FileFormat::TriGrid).unwrap())
         .clone()
 }
 
@@ -39,7 +40,7 @@ fn bunny() -> Option<PathBuf> {
 fn qs_bunny() -> Option<PathBuf> {
     static BUNNY: OnceLock<Option<PathBuf>> = OnceLock::new();
     BUNNY
-        .get_or_init(|| baked_bunny_as(Format::QSplat).unwrap())
+        .get_or_init(|| baked_bunny_as(FileFormat::QSplat).unwrap())
         .clone()
 }
 
@@ -73,7 +74,7 @@ fn firmware_matches_host(
     );
 
     let bytes = std::fs::read(&model).unwrap();
-    let host_model = Model::open(&bytes, Verify::Full).unwrap();
+    let host_model = Model::open(&bytes).unwrap();
     let expected: Vec<FrameSpec> = frame_specs_for(modes).collect();
     let mut host = HostFrames::new();
     let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
@@ -221,12 +222,12 @@ fn firmware_qsplat_frames_are_the_simulators_frames() {
     };
     let bytes = std::fs::read(&model).unwrap();
     let file = QSplat::open(&bytes).unwrap();
-    let ours_model = Model::open(&bytes, Verify::Full).unwrap();
-    assert_eq!(ours_model.format(), Format::QSplat);
+    let ours_model = Model::open(&bytes).unwrap();
+    assert_eq!(ours_model.format(), FileFormat::QSplat);
     assert_eq!(ours_model.shadow_modes(), &[Shadows::Off]);
     let mut host = HostFrames::new();
     let mut sim = FrameBuffers::new();
-    for spec in ours_model.frame_specs() {
+    for spec in model_frame_specs(&ours_model) {
         let ours = host.render(&ours_model, spec).unwrap();
         let settings = Settings {
             view: STANDARD_VIEWS[spec.view].1,
@@ -247,7 +248,10 @@ fn firmware_qsplat_frames_are_the_simulators_frames() {
     };
     let err = host.render(&ours_model, shadowed).unwrap_err();
     assert_eq!(
-        err.downcast_ref::<ViewError>(),
-        Some(&ViewError::NoShadows(Format::QSplat, Shadows::OnePass))
+        err.downcast_ref::<RenderError>(),
+        Some(&RenderError::NoShadows(
+            FileFormat::QSplat,
+            Shadows::OnePass
+        ))
     );
 }

@@ -9,7 +9,8 @@ use pocketsplat_core::camera::{Camera, Placement, Sphere, View, STANDARD_VIEWS};
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::qs::table::sphere;
 use pocketsplat_core::qs::write::{bake_qs, BakedQs, QsBakeOptions};
-use pocketsplat_core::qs::{render_qs, ByteOrder, Group, QSplat, QsFrame, QsRenderOptions, Tree};
+use pocketsplat_core::qs::{render_qs, ByteOrder, Group, QSplat, QsFrame, Tree};
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::{NullSink, SampleSplat, SplatSink};
 use pocketsplat_tests::model;
 
@@ -215,9 +216,9 @@ fn splats_match_an_f64_projection_over_random_cameras() {
     let (mut worst_px, mut worst_size, mut splats) = (0.0f64, 0.0f64, 0u64);
     for (view, fov, cutoff) in cases {
         let camera = Camera::orbit(bsphere, view, fov);
-        let opts = QsRenderOptions {
+        let opts = RenderOptions {
             cutoff_px: cutoff,
-            ..QsRenderOptions::default()
+            ..RenderOptions::default()
         };
         let frame = QsFrame::new(&file, &Placement::IDENTITY, &camera, &opts).unwrap();
         let mut check = Check {
@@ -259,9 +260,9 @@ fn frame_rate_control_holds_qsplat_frames_through_a_100x_cost_jump() {
         45.0,
     );
     let nodes = |cutoff: f32| {
-        let opts = QsRenderOptions {
+        let opts = RenderOptions {
             cutoff_px: cutoff,
-            ..QsRenderOptions::default()
+            ..RenderOptions::default()
         };
         let frame = QsFrame::new(&file, &Placement::IDENTITY, &camera, &opts).unwrap();
         render_qs(&file, &frame, &mut NullSink::default()).nodes_visited
@@ -329,7 +330,7 @@ fn drawn_box(file: &QSplat<'_>) -> [f64; 4] {
         file,
         &Placement::IDENTITY,
         &camera,
-        &QsRenderOptions::default(),
+        &RenderOptions::default(),
     )
     .unwrap();
     let mut e = Extent([f64::MAX, f64::MAX, f64::MIN, f64::MIN]);

@@ -36,9 +36,9 @@ pub mod stream;
 pub mod views;
 
 pub use views::{
-    frame_specs, frame_specs_for, render_standard_view, render_view, Drawn, Format, FrameLine,
-    FrameReport, FrameSpec, Model, ModelError, Phase, Shadows, Targets, ViewError, CUTOFFS_PX,
-    QSPLAT_MAGIC_PREFIX, SHADOW_MAP_SIZE, SHADOW_MODES,
+    frame_specs, frame_specs_for, model_frame_specs, render_standard_view, render_view, Drawn,
+    FrameLine, FrameReport, FrameSpec, Model, ModelError, Phase, RenderError, Shadows, Targets,
+    CUTOFFS_PX, SHADOW_MAP_SIZE, SHADOW_MODES,
 };
 #[cfg(feature = "stream")]
 pub use views::{render_stream_pass, render_stream_view, StreamTargets};

@@ -175,13 +175,13 @@ mod firmware {
     #[cfg(feature = "model")]
     fn render_model(mut targets: Targets<'_>) {
         use pocketsplat_core::tg::Verify;
-        use pocketsplat_pda::{render_standard_view, Model};
+        use pocketsplat_pda::{model_frame_specs, render_standard_view, Model};
 
         // Opaque: the bytes are a known constant, and the compiler must not fold any of the parse.
         let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
         // Of a tri-grid, the header CRC and the structure; the 5 MB data CRC pass is for untrusted
         // sources. A QSplat file is checked whole (its reader has one level).
-        let model = match Model::open(bytes, Verify::Structure) {
+        let model = match Model::open_with(bytes, Verify::Structure) {
             Ok(model) => model,
             Err(e) => fail(format_args!("model: {e}")),
         };
@@ -208,10 +208,14 @@ mod firmware {
                     c.interior
                 );
             }
+            #[allow(unreachable_patterns)] // a pack is drawn by `render_pack`
+            _ => {}
         }
         // The material's power table, once, before the first frame (no view needs it rebuilt).
-        targets.table.prepare(&[model.material()]);
-        for spec in model.frame_specs() {
+        targets
+            .table
+            .prepare(&[model.material(model.options().material)]);
+        for spec in model_frame_specs(&model) {
             match render_standard_view(&model, spec, &mut targets, marks::hit) {
                 Ok(report) => hprintln!("{}", report),
                 Err(e) => fail(format_args!("frame {spec:?}: {e}")),
@@ -625,7 +629,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         return Ok(());
     }
-    let model = Model::open(&bytes, Verify::Structure)?;
+    let model = Model::open_with(&bytes, Verify::Structure)?;
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]
     let (mut shadow, mut light) = (
@@ -641,7 +645,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         #[cfg(feature = "shadows")]
         light: &mut light,
     };
-    for spec in model.frame_specs() {
+    for spec in pocketsplat_pda::model_frame_specs(&model) {
         println!(
             "{}",
             render_standard_view(&model, spec, &mut targets, |_| {})?

@@ -2,7 +2,7 @@
 //! their materials, a light, shadows), drawn as `pocketsplat-sim`'s `render_pack` draws them, so
 //! that the firmware's frames, the host's and the simulator's can only be the same frame.
 //!
-//! A frame is: the pack's options ([`SceneOptions::of`]: its light, its shadows, its map size) at the
+//! A frame is: the pack's options ([`Scene::options`]: its light, its shadows, its map size) at the
 //! spec's cutoff, the orbit camera of the pack's view with the pack's field of view
 //! ([`Scene::camera`]), [`Scene::update_table`] (one slot per material of the scene), then clear
 //! and traverse through the same steps as a single model ([`crate::views`]' `draw_shaded`), the
@@ -16,18 +16,14 @@
 use core::fmt;
 
 use pocketsplat_core::raster::Framebuffer;
-#[cfg(not(feature = "shadows"))]
-use pocketsplat_core::scene::render_scene;
-#[cfg(feature = "shadows")]
-use pocketsplat_core::scene::render_scene_in;
-use pocketsplat_core::scene::{Scene, SceneError, SceneOptions, ShadowMode, MAX_SLOTS};
+use pocketsplat_core::render::{render_scene_marked, Direct, Target};
+use pocketsplat_core::scene::{Scene, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 
-use crate::views::draw_shaded;
-use crate::{Phase, Shadows, HEIGHT, WIDTH};
+use crate::{Phase, RenderError, Shadows, HEIGHT, WIDTH};
 
 /// LOD cutoffs the firmware renders each view of a pack at, pixels, finest first (the first is the
 /// reference the coarser frames' PSNR is measured against). 3 and 6 px are there so that a curve
@@ -36,7 +32,7 @@ pub const SCENE_CUTOFFS_PX: [u8; 6] = [1, 2, 3, 4, 6, 8];
 
 /// The largest shadow map side a firmware's scene may ask for, texels (the Big Scene's: 512² ×
 /// 2 bytes = 512 KB of RAM). A pack asking for more is refused per frame
-/// ([`SceneError::ShadowBuffer`]), not drawn wrongly.
+/// ([`pocketsplat_core::scene::SceneError::ShadowBuffer`]), not drawn wrongly.
 pub const SCENE_MAP_SIZE: usize = 512;
 
 /// The shading table of a scene: a slot for every material slot a pack can have
@@ -125,8 +121,8 @@ impl fmt::Display for SceneFrameReport<'_> {
 pub enum SceneViewError {
     /// The pack has no view of that index.
     NoView(usize),
-    /// The core's scene renderer refused the frame.
-    Scene(SceneError),
+    /// The core's renderer refused the frame.
+    Render(RenderError),
 }
 
 impl core::error::Error for SceneViewError {}
@@ -135,22 +131,14 @@ impl fmt::Display for SceneViewError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SceneViewError::NoView(v) => write!(f, "the pack has no view {v}"),
-            SceneViewError::Scene(e) => write!(f, "{e}"),
+            SceneViewError::Render(e) => write!(f, "{e}"),
         }
     }
 }
 
-impl From<SceneError> for SceneViewError {
-    fn from(e: SceneError) -> Self {
-        SceneViewError::Scene(e)
-    }
-}
-
-fn shadows_of(s: ShadowMode) -> Shadows {
-    match s {
-        ShadowMode::Off => Shadows::Off,
-        ShadowMode::OnePass => Shadows::OnePass,
-        ShadowMode::TwoPass => Shadows::TwoPass,
+impl From<RenderError> for SceneViewError {
+    fn from(e: RenderError) -> Self {
+        SceneViewError::Render(e)
     }
 }
 
@@ -158,49 +146,35 @@ fn shadows_of(s: ShadowMode) -> Shadows {
 /// called at the start of each [`Phase`] and at [`Phase::End`], as for a model's frame.
 ///
 /// # Errors
-/// When the pack has no such view, or the frame cannot be set up ([`SceneError`]: a bad cutoff, a
+/// When the pack has no such view, or the frame cannot be set up ([`RenderError`]: a bad cutoff, a
 /// shadow map larger than `targets.shadow`, more slots than [`MAX_SLOTS`]).
 pub fn render_scene_view<'p>(
     scene: &Scene<'p>,
     spec: SceneFrameSpec,
     targets: &mut SceneTargets<'_>,
-    mut mark: impl FnMut(Phase),
+    mark: impl FnMut(Phase),
 ) -> Result<SceneFrameReport<'p>, SceneViewError> {
-    mark(Phase::Setup);
     let (view_name, view) = scene
         .pack()
         .view(spec.view)
         .ok_or(SceneViewError::NoView(spec.view))?;
-    let mut opts = SceneOptions::of(scene.pack());
-    opts.cutoff_px = f32::from(spec.cutoff_px);
-    let cam = scene.camera(view);
-
-    mark(Phase::Table);
-    let table_rebuilt = scene.update_table(targets.table, &cam, opts.light_dir)?;
-
-    let shadow = &mut *targets.shadow;
-    #[cfg(feature = "shadows")]
-    let light = &mut *targets.light;
-    let stats = draw_shaded(
-        targets.color,
-        targets.depth,
+    let options = scene.options().with_cutoff(f32::from(spec.cutoff_px));
+    let camera = scene.camera(view);
+    let target = Target::new(
+        Framebuffer::new(targets.color, targets.depth),
         targets.table,
-        opts.kernel,
-        &mut mark,
-        |sink| {
-            #[cfg(feature = "shadows")]
-            return render_scene_in(scene, &cam, &opts, shadow, light, sink);
-            #[cfg(not(feature = "shadows"))]
-            render_scene(scene, &cam, &opts, shadow, sink)
-        },
-    )?;
+    );
+    #[cfg(feature = "shadows")]
+    let target = target.with_shadows(targets.shadow, targets.light);
+    let mut target = target;
+    let drawn = render_scene_marked(scene, &camera, &options, &mut target, &mut Direct, mark)?;
     Ok(SceneFrameReport {
         view_name,
         spec,
-        shadows: shadows_of(stats.shadows),
-        crc: Framebuffer::new(targets.color, targets.depth).crc(),
-        stats: stats.total,
-        table_rebuilt,
+        shadows: drawn.shadows,
+        crc: target.pixels.crc(),
+        stats: drawn.stats,
+        table_rebuilt: drawn.table_rebuilt,
     })
 }
 

@@ -27,7 +27,7 @@ use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::stream::torture::Flaky;
 use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
 
-use crate::{render_stream_pass, render_stream_view, Drawn, Phase, Targets, ViewError, WIDTH};
+use crate::{render_stream_pass, render_stream_view, Drawn, Phase, RenderError, Targets, WIDTH};
 
 /// Bytes of block cache (RAM, a static on the device).
 pub const CACHE_BYTES: usize = 64 * 1024;
@@ -346,7 +346,7 @@ pub enum StreamRunError<E> {
     /// The stream could not be opened (header or CRC table unreadable, file too large).
     Open(pocketsplat_core::stream::StreamError<E>),
     /// A frame could not be set up.
-    View(ViewError),
+    View(RenderError),
 }
 
 impl<E: fmt::Debug> fmt::Display for StreamRunError<E> {

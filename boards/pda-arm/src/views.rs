@@ -2,14 +2,11 @@
 //! the host tests both call, so that an ARM frame and a host frame can only differ by what the two
 //! machines compute, never by what the code asks them to (docs/ARCHITECTURE.md: same frames, same CRC).
 //!
-//! A [`Model`] is a tri-grid (`.tg`) or, with the `qsplat` feature, a QSplat file (`.qs`), told apart
-//! by its magic at run time ([`Model::open`]). A frame is what `pocketsplat-sim`'s `render_tg_with`
-//! (or `render_qs_with`) does with default settings (square kernel, default material and light, 45°
-//! field of view, a [`SHADOW_MAP_SIZE`]² shadow map): the camera from the model's bounds, the
-//! format's per-frame tables ([`TgFrame::new`] and the light's tables when shadows are on, or
-//! [`QsFrame::new`]), [`ShadingTable::update`], clear, the format's traversal, CRC. Camera, light,
-//! shading table and clearing are one code path for both formats; only the per-frame tables and the
-//! traversal are the format's. The steps are separated by [`Phase`] marks, which the firmware turns
+//! A [`Model`] is the core's: a tri-grid (`.tg`) or, with the `qsplat` feature, a QSplat file
+//! (`.qs`), told apart by its magic at run time ([`Model::open_with`]). A frame is the core's
+//! [`render_marked`] with the defaults of `pocketsplat render` (square kernel, default material and
+//! light, 45° field of view, a [`SHADOW_MAP_SIZE`]² shadow map) into the firmware's static buffers
+//! ([`Targets`]), then the CRC. The steps are separated by [`Phase`] marks, which the firmware turns
 //! into calls of marker functions so that an instruction counter in QEMU can attribute the cost of
 //! each step.
 //!
@@ -20,23 +17,18 @@
 
 use core::fmt;
 
-use pocketsplat_core::camera::{
-    self, Camera, Placement, Sphere, View, DEFAULT_FOV_DEG, STANDARD_VIEWS,
-};
-#[cfg(feature = "qsplat")]
-use pocketsplat_core::qs::{
-    render_qs_colored, shading_material, QSplat, QsError, QsFrame, QsFrameError, QsRenderOptions,
-};
+use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::raster::{Framebuffer, Kernel};
-use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+use pocketsplat_core::render::{render_marked, Direct, RenderOptions, Target};
+#[cfg(feature = "stream")]
+use pocketsplat_core::render::{render_stream, StreamPass};
+pub use pocketsplat_core::render::{Drawn, Model, ModelError, Phase, RenderError};
+use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
-use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
-use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::shadow::LightFrame;
+use pocketsplat_core::splat::Stats;
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::TgStream;
-use pocketsplat_core::tg::{
-    render_tg, FrameError, Header, RenderOptions, TgError, TgFrame, TriGrid, Verify,
-};
 
 use crate::{HEIGHT, WIDTH};
 
@@ -98,35 +90,6 @@ pub fn frame_specs_for(modes: &'static [Shadows]) -> impl Iterator<Item = FrameS
     })
 }
 
-/// The steps of a frame, in order. [`render_standard_view`] reports the start of each (and
-/// [`Phase::End`] after the traversal) to its `mark` callback.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Phase {
-    /// Camera and per-frame integer tables ([`TgFrame::new`], and the light's with shadows; soft
-    /// floats on an FPU-less core).
-    Setup,
-    /// The shading table ([`ShadingTable::update`]; rebuilds only when the view direction changes).
-    Table,
-    /// Clearing colour and depth.
-    Clear,
-    /// Traversal and raster ([`render_tg`]; with two-pass shadows, the light's pass first).
-    Traverse,
-    /// The frame is drawn (the CRC that follows is not part of the frame).
-    End,
-}
-
-impl Phase {
-    /// Every phase, in frame order.
-    pub const ALL: [Phase; 5] = [
-        Phase::Setup,
-        Phase::Table,
-        Phase::Clear,
-        Phase::Traverse,
-        Phase::End,
-    ];
-}
-
 /// Where a frame is drawn: colour and depth rows, the shading table and, with shadows, the shadow
 /// map (statics on the device, the heap on the host).
 pub struct Targets<'a> {
@@ -171,12 +134,6 @@ impl Targets<'_> {
         }
     }
 }
-
-/// Where [`Frame::new`] puts the light's tables: [`Targets::light`], or nothing without shadows.
-#[cfg(feature = "shadows")]
-type LightSlot<'s> = &'s mut LightFrame;
-#[cfg(not(feature = "shadows"))]
-type LightSlot<'s> = core::marker::PhantomData<&'s ()>;
 
 /// What one frame did: the line the firmware prints, `frame <view> cutoff <px> shadows <mode> crc
 /// 0x… splats N nodes N` (for two-pass shadows, `nodes` counts both passes).
@@ -285,210 +242,23 @@ impl<'a> FrameLine<'a> {
     }
 }
 
-/// How every QSplat file starts (`QSplat11` for version 11; the core's `format` module).
-pub const QSPLAT_MAGIC_PREFIX: [u8; 6] = pocketsplat_core::format::QS_MAGIC_PREFIX;
-
-/// The file formats a [`Model`] can be.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Format {
-    /// Tri-grid (`.tg`).
-    TriGrid,
-    /// QSplat 1.0 (`.qs`).
-    QSplat,
-}
-
-impl Format {
-    /// Both formats.
-    pub const ALL: [Format; 2] = [Format::TriGrid, Format::QSplat];
-
-    /// `tg` or `qsplat` (the names of `pocketsplat bake --format`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Format::TriGrid => "tg",
-            Format::QSplat => "qsplat",
-        }
-    }
-
-    /// The format called `name`.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|f| f.name() == name)
-    }
-
-    /// The format of a file from its first bytes: [`Format::QSplat`] when they are
-    /// [`QSPLAT_MAGIC_PREFIX`], otherwise [`Format::TriGrid`] (whose reader checks its own magic).
-    pub fn of(bytes: &[u8]) -> Self {
-        match pocketsplat_core::format::FileFormat::sniff(bytes) {
-            Some(pocketsplat_core::format::FileFormat::QSplat) => Format::QSplat,
-            _ => Format::TriGrid,
-        }
-    }
-}
-
-/// A validated, memory-resident model: what the views draw.
-// Unboxed: there is no heap, and a firmware holds one model (a tri-grid's header and level
-// directory are its largest part, about 300 bytes).
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug)]
-pub enum Model<'a> {
-    /// A tri-grid.
-    TriGrid(TriGrid<'a>),
-    /// A QSplat file.
-    #[cfg(feature = "qsplat")]
-    QSplat(QSplat<'a>),
-}
-
-impl<'a> From<TriGrid<'a>> for Model<'a> {
-    fn from(grid: TriGrid<'a>) -> Self {
-        Model::TriGrid(grid)
-    }
-}
-
-#[cfg(feature = "qsplat")]
-impl<'a> From<QSplat<'a>> for Model<'a> {
-    fn from(file: QSplat<'a>) -> Self {
-        Model::QSplat(file)
-    }
-}
-
-impl<'a> Model<'a> {
-    /// Opens `bytes` in the format its magic names ([`Format::of`]); `verify` is how much of a
-    /// tri-grid to check (a QSplat file is always checked whole: its reader has one level).
-    ///
-    /// # Errors
-    /// When the file is not a valid model of its format, or is a QSplat file and this build has no
-    /// `qsplat` feature.
-    pub fn open(bytes: &'a [u8], verify: Verify) -> Result<Self, ModelError> {
-        match Format::of(bytes) {
-            Format::TriGrid => TriGrid::open(bytes, verify)
-                .map(Model::TriGrid)
-                .map_err(ModelError::TriGrid),
-            #[cfg(feature = "qsplat")]
-            Format::QSplat => QSplat::open(bytes)
-                .map(Model::QSplat)
-                .map_err(ModelError::QSplat),
-            #[cfg(not(feature = "qsplat"))]
-            Format::QSplat => Err(ModelError::QSplatNotBuilt),
-        }
-    }
-
-    /// The model's format.
-    pub fn format(&self) -> Format {
-        match self {
-            Model::TriGrid(_) => Format::TriGrid,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(_) => Format::QSplat,
-        }
-    }
-
-    /// The model's bounding box (min, max corners), which frames the standard views.
-    pub fn bounds(&self) -> [[f32; 3]; 2] {
-        match self {
-            Model::TriGrid(grid) => grid.header().bounds,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => file.bounds(),
-        }
-    }
-
-    /// The shadow modes this build renders the model in: [`SHADOW_MODES`] for a tri-grid,
-    /// [`Shadows::Off`] for a QSplat file (shadows are tri-grid only).
-    pub fn shadow_modes(&self) -> &'static [Shadows] {
-        match self {
-            Model::TriGrid(_) => SHADOW_MODES,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(_) => &[Shadows::Off],
-        }
-    }
-
-    /// The frames the firmware renders of this model, in order ([`frame_specs_for`] of
-    /// [`Model::shadow_modes`]).
-    pub fn frame_specs(&self) -> impl Iterator<Item = FrameSpec> {
-        frame_specs_for(self.shadow_modes())
-    }
-
-    /// The material every sample is shaded with: the default, in white for a coloured QSplat file
-    /// (`pocketsplat render`'s rule, [`shading_material`]).
-    pub fn material(&self) -> Material {
-        match self {
-            Model::TriGrid(_) => DEFAULT_MATERIAL,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => shading_material(file, DEFAULT_MATERIAL),
-        }
-    }
-}
-
-/// Why a model cannot be opened.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModelError {
-    /// Not a valid tri-grid.
-    TriGrid(TgError),
-    /// Not a valid QSplat file.
-    #[cfg(feature = "qsplat")]
-    QSplat(QsError),
-    /// A QSplat file, and this build has no `qsplat` feature.
-    QSplatNotBuilt,
-}
-
-impl core::error::Error for ModelError {}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::TriGrid(e) => write!(f, "tri-grid: {e}"),
-            #[cfg(feature = "qsplat")]
-            ModelError::QSplat(e) => write!(f, "QSplat: {e}"),
-            ModelError::QSplatNotBuilt => {
-                write!(f, "a QSplat file: this build has no `qsplat` feature")
-            }
-        }
-    }
-}
-
-/// Why a frame cannot be set up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ViewError {
-    /// The tri-grid's frame ([`FrameError`]: ρ above 3, degenerate bounds, a cutoff that is not
-    /// positive).
-    TriGrid(FrameError),
-    /// The QSplat file's frame ([`QsFrameError`]: degenerate bounds, a cutoff that is not positive).
-    #[cfg(feature = "qsplat")]
-    QSplat(QsFrameError),
-    /// Shadows asked of a QSplat model (shadows are tri-grid only), or of a build without the
-    /// `shadows` feature.
-    NoShadows(Format, Shadows),
-}
-
-impl core::error::Error for ViewError {}
-
-impl fmt::Display for ViewError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ViewError::TriGrid(e) => write!(f, "{e}"),
-            #[cfg(feature = "qsplat")]
-            ViewError::QSplat(e) => write!(f, "{e}"),
-            ViewError::NoShadows(format, shadows) => write!(
-                f,
-                "shadows {} of a {} model: shadows need a tri-grid and the `shadows` feature",
-                shadows.name(),
-                format.name()
-            ),
-        }
-    }
+/// The frames the firmware renders of `model`, in order ([`frame_specs_for`] of
+/// [`Model::shadow_modes`]).
+pub fn model_frame_specs(model: &Model<'_>) -> impl Iterator<Item = FrameSpec> {
+    frame_specs_for(model.shadow_modes())
 }
 
 /// Renders frame `spec` of `model` into `targets` and checksums it ([`render_view`] of the standard
 /// view at the spec's cutoff, then the CRC of the colour buffer, after [`Phase::End`]).
 ///
 /// # Errors
-/// When the frame cannot be set up ([`ViewError`]), e.g. shadows of a QSplat model.
+/// When the frame cannot be set up ([`RenderError`]), e.g. shadows of a QSplat model.
 pub fn render_standard_view(
     model: &Model<'_>,
     spec: FrameSpec,
     targets: &mut Targets<'_>,
     mark: impl FnMut(Phase),
-) -> Result<FrameReport, ViewError> {
+) -> Result<FrameReport, RenderError> {
     let (_, view) = STANDARD_VIEWS[spec.view];
     let frame = render_view(
         model,
@@ -506,96 +276,61 @@ pub fn render_standard_view(
     })
 }
 
-/// What [`render_view`] did.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Drawn {
-    /// Traversal counts.
-    pub stats: Stats,
-    /// Whether the shading table was rebuilt for this frame.
-    pub table_rebuilt: bool,
-}
-
 /// The splat kernel of every frame of a model (`pocketsplat render`'s default; a scene's is its
-/// `SceneOptions`'). Public so that benchmarks can say which kernel their frames were drawn with.
+/// `Scene::options`'). Public so that benchmarks can say which kernel their frames were drawn with.
 pub const KERNEL: Kernel = Kernel::Square;
 
 /// Renders `model` seen from the orbit `view` at `cutoff_px` into `targets` with the defaults of
-/// `pocketsplat render` (square kernel, default material and light, 45° field of view). `mark` is
-/// called at the start of each [`Phase`] and at [`Phase::End`]. The firmware's standard views and a
-/// handheld's interactive camera draw through this one function, for either format.
+/// `pocketsplat render` (square kernel, default material and light, 45° field of view): the core's
+/// [`render_marked`]. `mark` is called at the start of each [`Phase`] and at [`Phase::End`]. The
+/// firmware's standard views and a handheld's interactive camera draw through this one function,
+/// for either format.
 ///
 /// # Errors
-/// When the frame cannot be set up ([`ViewError`]: ρ above 3, degenerate bounds, a cutoff that is
-/// not positive, shadows of a QSplat model or from a build without the `shadows` feature).
+/// When the frame cannot be set up ([`RenderError`]: ρ above 3, degenerate bounds, a cutoff that
+/// is not positive, shadows of a QSplat model or from a build without the `shadows` feature).
 pub fn render_view(
     model: &Model<'_>,
     view: View,
     cutoff_px: f32,
     shadows: Shadows,
     targets: &mut Targets<'_>,
-    mut mark: impl FnMut(Phase),
-) -> Result<Drawn, ViewError> {
-    mark(Phase::Setup);
-    let (cam, light) = view_camera(model.bounds(), view);
-    #[cfg(feature = "shadows")]
-    let slot = &mut *targets.light;
-    #[cfg(not(feature = "shadows"))]
-    let slot = core::marker::PhantomData;
-    let frame = Frame::new(model, &cam, cutoff_px, shadows, light, slot)?;
-    #[cfg(feature = "shadows")]
-    let shadow = &mut *targets.shadow;
-    let canvas = Canvas {
-        color: targets.color,
-        depth: targets.depth,
-        table: targets.table,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    let camera = model.orbit(view);
+    let options = RenderOptions {
+        cutoff_px,
+        kernel: KERNEL,
+        shadows,
+        shadow_map_size: SHADOW_MAP_SIZE,
+        ..model.options()
     };
-    Ok(canvas.draw(
-        model.material(),
-        &cam,
-        light,
-        &mut mark,
-        |sink| match &frame {
-            Frame::TriGrid(grid, f) => render_tg(grid, f, sink),
-            #[cfg(feature = "shadows")]
-            Frame::TriGridShadowed(grid, f, light, mode) => {
-                let mut map = ShadowMap::new(shadow, SHADOW_MAP_SIZE);
-                render_tg_shadowed(grid, f, light, &mut map, *mode, sink)
-            }
-            #[cfg(feature = "qsplat")]
-            Frame::QSplat(file, f) => render_qs_colored(file, f, sink),
-        },
-    ))
+    let target = Target::new(
+        Framebuffer::new(targets.color, targets.depth),
+        targets.table,
+    );
+    #[cfg(feature = "shadows")]
+    let target = target.with_shadows(&mut targets.shadow[..], targets.light);
+    let mut target = target;
+    render_marked(model, &camera, &options, &mut target, &mut Direct, mark)
 }
 
-/// [`render_view`] of a tri-grid streamed through a block cache (`stream` feature): the same
-/// camera, shading table, clear and splat sink, with [`TgStream::render`] as the traversal (it
-/// draws what is resident and queues what is missing; [`TgStream::serve`] reads it). Without
-/// shadows: the streamed traversal takes no light pass yet.
+/// [`render_view`] of a tri-grid streamed through a block cache (`stream` feature): the core's
+/// [`render_stream`] (it draws what is resident and queues what is missing; [`TgStream::serve`]
+/// reads it) through the same camera, shading table, clear and splat sink. Without shadows: the
+/// streamed traversal takes no light pass yet.
 ///
 /// # Errors
-/// When the frame cannot be set up ([`ViewError::TriGrid`]).
+/// When the frame cannot be set up ([`RenderError::Frame`]).
 #[cfg(feature = "stream")]
 pub fn render_stream_view(
     stream: &mut TgStream<'_>,
     view: View,
     cutoff_px: f32,
     targets: &mut StreamTargets<'_>,
-    mut mark: impl FnMut(Phase),
-) -> Result<Drawn, ViewError> {
-    mark(Phase::Setup);
-    let (cam, light) = view_camera(stream.header().bounds, view);
-    let frame = tg_frame(stream.header(), &cam, cutoff_px)?;
-    let canvas = Canvas {
-        color: targets.color,
-        depth: targets.depth,
-        table: targets.table,
-    };
-    Ok(
-        canvas.draw(DEFAULT_MATERIAL, &cam, light, &mut mark, |sink| {
-            stream.render(&frame, sink)
-        }),
-    )
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    stream_frame(stream, view, cutoff_px, targets, StreamPass::Frame, mark)
 }
 
 /// The next pass of a refined frame of `stream` ([`TgStream::render_pass`]) at `view` and
@@ -604,7 +339,7 @@ pub fn render_stream_view(
 /// passes add up to the frame the resident file gives.
 ///
 /// # Errors
-/// When the frame cannot be set up ([`ViewError::TriGrid`]).
+/// When the frame cannot be set up ([`RenderError::Frame`]).
 #[cfg(feature = "stream")]
 pub fn render_stream_pass(
     stream: &mut TgStream<'_>,
@@ -612,173 +347,50 @@ pub fn render_stream_pass(
     cutoff_px: f32,
     targets: &mut StreamTargets<'_>,
     first: bool,
-    mut mark: impl FnMut(Phase),
-) -> Result<Drawn, ViewError> {
-    mark(Phase::Setup);
-    let (cam, light) = view_camera(stream.header().bounds, view);
-    let frame = tg_frame(stream.header(), &cam, cutoff_px)?;
-    mark(Phase::Table);
-    let table_rebuilt =
-        targets
-            .table
-            .update(&[DEFAULT_MATERIAL], light, camera::scale(cam.forward, -1.0));
-    mark(Phase::Clear);
-    let mut fb = Framebuffer::new(targets.color, targets.depth);
-    if first {
-        fb.clear(0);
-        stream.begin_refined();
-    }
-    mark(Phase::Traverse);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
-        table: targets.table,
-        kernel: KERNEL,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    let pass = if first {
+        StreamPass::FirstPass
+    } else {
+        StreamPass::NextPass
     };
-    let stats = stream.render_pass(&frame, &mut sink);
-    mark(Phase::End);
-    Ok(Drawn {
-        stats,
-        table_rebuilt,
-    })
+    stream_frame(stream, view, cutoff_px, targets, pass, mark)
 }
 
-/// The camera of `view` around a model with `bounds`, and the light (a unit vector): the start of
-/// every frame's setup.
-fn view_camera(bounds: [[f32; 3]; 2], view: View) -> (Camera, camera::Vec3) {
-    let cam = Camera::orbit(Sphere::from_bounds(bounds), view, DEFAULT_FOV_DEG);
-    let light = camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1);
-    (cam, light)
-}
-
-/// A tri-grid's per-frame tables for `cam` at `cutoff_px`, resident or streamed alike.
-fn tg_frame(header: &Header, cam: &Camera, cutoff_px: f32) -> Result<TgFrame, ViewError> {
-    let opts = RenderOptions {
+/// A streamed frame or pass with the defaults of [`render_view`].
+#[cfg(feature = "stream")]
+fn stream_frame(
+    stream: &mut TgStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut StreamTargets<'_>,
+    pass: StreamPass,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    let sphere = pocketsplat_core::camera::Sphere::from_bounds_f64(stream.header().bounds64);
+    let camera = pocketsplat_core::camera::Camera::orbit(
+        sphere,
+        view,
+        pocketsplat_core::camera::DEFAULT_FOV_DEG,
+    );
+    let options = RenderOptions {
         cutoff_px,
         kernel: KERNEL,
         ..RenderOptions::default()
     };
-    TgFrame::new(header, &Placement::IDENTITY, cam, &opts).map_err(ViewError::TriGrid)
-}
-
-/// The buffers a frame draws into (the shadow map and light tables stay with the traversal).
-struct Canvas<'t> {
-    color: &'t mut [[u16; WIDTH]; HEIGHT],
-    depth: &'t mut [[u16; WIDTH]; HEIGHT],
-    table: &'t mut ShadingTable<1>,
-}
-
-/// The splat sink every frame draws through.
-type Sink<'f, 'b, 't> = ShadedRaster<'f, 'b, 't, WIDTH, HEIGHT, 1>;
-
-impl Canvas<'_> {
-    /// The steps after setup that every frame shares, whatever draws its splats: the shading table
-    /// for `material` under `light` seen from `cam` ([`Phase::Table`]), clearing ([`Phase::Clear`]),
-    /// then `traverse` into the shaded raster ([`Phase::Traverse`]) and [`Phase::End`].
-    fn draw(
-        self,
-        material: Material,
-        cam: &Camera,
-        light: camera::Vec3,
-        mark: &mut impl FnMut(Phase),
-        traverse: impl FnOnce(&mut Sink<'_, '_, '_>) -> Stats,
-    ) -> Drawn {
-        mark(Phase::Table);
-        let table_rebuilt = self
-            .table
-            .update(&[material], light, camera::scale(cam.forward, -1.0));
-
-        let stats = draw_shaded(self.color, self.depth, self.table, KERNEL, mark, traverse);
-        Drawn {
-            stats,
-            table_rebuilt,
-        }
-    }
-}
-
-/// The steps of a frame after its table: [`Phase::Clear`] (colour and depth), [`Phase::Traverse`]
-/// (`traverse` into a raster shading through `table` with `kernel`), [`Phase::End`]. One code path
-/// for every format and for scene packs ([`crate::scene`]), whatever their table's slot count `M`.
-pub(crate) fn draw_shaded<const M: usize, R>(
-    color: &mut [[u16; WIDTH]; HEIGHT],
-    depth: &mut [[u16; WIDTH]; HEIGHT],
-    table: &ShadingTable<M>,
-    kernel: Kernel,
-    mark: &mut impl FnMut(Phase),
-    traverse: impl FnOnce(&mut ShadedRaster<'_, '_, '_, WIDTH, HEIGHT, M>) -> R,
-) -> R {
-    mark(Phase::Clear);
-    let mut fb = Framebuffer::new(color, depth);
-    fb.clear(0);
-
-    mark(Phase::Traverse);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
-        table,
-        kernel,
-    };
-    let drawn = traverse(&mut sink);
-    mark(Phase::End);
-    drawn
-}
-
-/// A frame set up for its model's traversal: the format's per-frame integer tables.
-// Unboxed: there is no heap; one lives on the stack for one frame, as the tables always did.
-#[allow(clippy::large_enum_variant)]
-enum Frame<'m, 'a> {
-    /// A tri-grid without shadows.
-    TriGrid(&'m TriGrid<'a>, TgFrame),
-    /// A tri-grid with shadows: the light's tables too.
-    #[cfg(feature = "shadows")]
-    TriGridShadowed(&'m TriGrid<'a>, TgFrame, &'m LightFrame, Shadows),
-    /// A QSplat file.
-    #[cfg(feature = "qsplat")]
-    QSplat(&'m QSplat<'a>, QsFrame),
-}
-
-impl<'m, 'a> Frame<'m, 'a> {
-    /// Setup (floats allowed): the tables of `model` for `cam` at `cutoff_px`, and of the light
-    /// from `light` (a unit vector) into `slot` when `shadows` is on.
-    fn new(
-        model: &'m Model<'a>,
-        cam: &Camera,
-        cutoff_px: f32,
-        shadows: Shadows,
-        light: camera::Vec3,
-        slot: LightSlot<'m>,
-    ) -> Result<Self, ViewError> {
-        match model {
-            Model::TriGrid(grid) => {
-                let frame = tg_frame(grid.header(), cam, cutoff_px)?;
-                match shadows {
-                    Shadows::Off => Ok(Frame::TriGrid(grid, frame)),
-                    #[cfg(feature = "shadows")]
-                    mode => {
-                        slot.set(grid.header(), &Placement::IDENTITY, light, SHADOW_MAP_SIZE);
-                        Ok(Frame::TriGridShadowed(grid, frame, slot, mode))
-                    }
-                    #[cfg(not(feature = "shadows"))]
-                    mode => {
-                        let _ = (light, slot);
-                        Err(ViewError::NoShadows(Format::TriGrid, mode))
-                    }
-                }
-            }
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => {
-                if shadows != Shadows::Off {
-                    return Err(ViewError::NoShadows(Format::QSplat, shadows));
-                }
-                let opts = QsRenderOptions {
-                    cutoff_px,
-                    kernel: KERNEL,
-                    backface_culling: true,
-                };
-                let frame = QsFrame::new(file, &Placement::IDENTITY, cam, &opts)
-                    .map_err(ViewError::QSplat)?;
-                Ok(Frame::QSplat(file, frame))
-            }
-        }
-    }
+    let mut target = Target::new(
+        Framebuffer::new(targets.color, targets.depth),
+        targets.table,
+    );
+    render_stream(
+        stream,
+        &camera,
+        &options,
+        &mut target,
+        pass,
+        &mut Direct,
+        mark,
+    )
 }
 
 #[cfg(test)]
@@ -850,28 +462,5 @@ mod tests {
         for m in Shadows::ALL {
             assert_eq!(Shadows::from_name(m.name()), Some(m));
         }
-    }
-
-    #[test]
-    fn the_magic_tells_the_format_and_bad_files_are_errors() {
-        assert_eq!(Format::of(b"QSplat11\0\0"), Format::QSplat);
-        assert_eq!(Format::of(b"QSpla"), Format::TriGrid);
-        assert_eq!(Format::of(b""), Format::TriGrid);
-        for f in Format::ALL {
-            assert_eq!(Format::from_name(f.name()), Some(f));
-        }
-        let junk = [0u8; 64];
-        assert!(matches!(
-            Model::open(&junk, Verify::Full),
-            Err(ModelError::TriGrid(_))
-        ));
-        let mut qs = [0u8; 64];
-        qs[..8].copy_from_slice(b"QSplat11");
-        let err = Model::open(&qs, Verify::Full).unwrap_err();
-        #[cfg(feature = "qsplat")]
-        assert!(matches!(err, ModelError::QSplat(_)), "{err:?}");
-        #[cfg(not(feature = "qsplat"))]
-        assert_eq!(err, ModelError::QSplatNotBuilt);
-        assert!(!err.to_string().is_empty());
     }
 }

@@ -83,6 +83,19 @@ pub fn demo_tg() -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The model the core's documentation and examples draw (`core/examples/data/trefoil.tg`): the demo
+/// trefoil at depth 4 in 512-byte blocks, small enough to link into a firmware example (a test
+/// holds the committed file equal to this bake: `tests/tests/example_model.rs`).
+///
+/// # Errors
+/// Never for the built-in model; bake errors are passed on.
+pub fn example_tg() -> Result<Vec<u8>> {
+    let mesh = trefoil(300, 16, 0.45);
+    let (_, bytes) =
+        crate::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)?;
+    Ok(bytes)
+}
+
 /// Runs the demo: a window when there is a display, else a PNG in the current folder.
 ///
 /// # Errors

@@ -7,8 +7,9 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use pocketsplat_core::camera::{self, Camera, Placement};
 use pocketsplat_core::format::FileFormat;
-use pocketsplat_core::qs::{render_qs_colored, shading_material, QSplat, QsFrame, QsRenderOptions};
+use pocketsplat_core::qs::{render_qs_colored, shading_material, QSplat, QsFrame};
 use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::shade::{Material, ShadingTable};
 use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
 
@@ -89,10 +90,10 @@ pub fn render_qs_from(
     if settings.shadows != ShadowMode::Off {
         bail!("shadows are implemented for .tg files only; render .qs files with --shadows off");
     }
-    let opts = QsRenderOptions {
+    let opts = RenderOptions {
         cutoff_px: settings.cutoff_px,
         kernel: settings.kernel,
-        backface_culling: true,
+        ..RenderOptions::default()
     };
     let t = Instant::now();
     let frame = QsFrame::new(file, &Placement::IDENTITY, cam, &opts)?;

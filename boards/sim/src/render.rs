@@ -12,8 +12,9 @@ use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
 use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, SplatSink, Stats};
 
 use crate::levels::Levels;
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::tg::read::Header;
-use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid};
+use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid};
 
 /// Width and height of every frame.
 pub use pocketsplat_core::camera::{HEIGHT, WIDTH};
@@ -331,7 +332,7 @@ pub struct Classified {
 /// depth test, each splat's class (1 lit, 2 unlit): the same splats in the same order give the same
 /// winner per pixel in both.
 struct ClassTee<'f, 'b, 't, 'c, 'd> {
-    shaded: ShadedRaster<'f, 'b, 't, WIDTH, HEIGHT, 1>,
+    shaded: ShadedRaster<'f, 't, Framebuffer<'b>, 1>,
     class: &'c mut Framebuffer<'d>,
     to_light_q14: [i32; 3],
 }

@@ -6,7 +6,9 @@ mod common;
 use common::model;
 
 use pocketsplat_core::bake::TriMesh;
-use pocketsplat_core::camera::{self, standard_view, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
+use pocketsplat_core::camera::{
+    self, standard_view, Camera, Sphere, Vec3, View, Viewport, HEIGHT, WIDTH,
+};
 use pocketsplat_core::shade::{self, Material, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 use pocketsplat_sim::image::{self, read_rgb8_png, write_rgb565_png, write_rgb8_png};
 use pocketsplat_sim::metrics::{compare_frames, coverage_mismatch, psnr_rgb8};
@@ -42,6 +44,7 @@ fn unit_camera() -> Camera {
         forward: [0.0, 0.0, 1.0],
         focal_px: 1.0,
         near: 1e-3,
+        viewport: Viewport::DEFAULT,
     }
 }
 

@@ -6,66 +6,24 @@
 //!   `root radius / 2²⁸` ([`ROOT_RADIUS`]). A child's centre is its parent's plus `(a, b, c)·r₁₃` and its
 //!   radius `s·r₁₃`, where `r₁₃ = ⌈r/13⌉` of the parent: one table look-up and a few multiplies.
 //! - **projected homogeneous coordinates** `(X, Y, W)`, as for the tri-grid (`fixed.rs`): `X/W`, `Y/W`
-//!   are pixels, `W` the camera depth, with one per-frame scale so that `max(|X|, |Y|) + 320·|W| ≤ 2³⁰`
-//!   over every root sphere. Being linear in the model point, a child's `(X, Y, W)` is its parent's
+//!   are pixels, `W` the camera depth, with one per-frame scale so that `max(|X|, |Y|) + S·|W| ≤ 2³⁰`
+//!   over every root sphere (`S` the image's larger side). Being linear in the model point, a child's `(X, Y, W)` is its parent's
 //!   plus `r₁₃ · (T_x[a] + T_y[b] + T_z[c]) / 2²³`, with per-frame tables `T` (Q23).
 //! - **backface units**: model integers shifted right by `bshift`, chosen per frame so that every
 //!   eye-to-node vector is below 2²⁴ and the cone test's squares fit in `i64`.
 
 use super::read::{QSplat, Tree};
-use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use crate::camera::{self, Camera, Placement, Projection, Vec3, Viewport, PROJECTED_RANGE};
 use crate::raster::Kernel;
+use crate::render::{FrameError, RenderOptions};
 use crate::shade::Material;
 
 /// A root sphere's radius in model integers.
 pub const ROOT_RADIUS: i32 = 1 << 28;
 /// Fraction bits of the displacement tables.
 pub const T_BITS: u32 = 23;
-/// Bound on `max(|X|, |Y|) + 320·|W|` over every root sphere.
-const RANGE: f64 = (1u64 << 30) as f64;
 /// Backface vectors stay below this (in backface units) for every node of a valid tree.
 pub const BACKFACE_RANGE: i64 = 1 << 24;
-
-/// How to render a `.qs` file.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct QsRenderOptions {
-    /// Draw a node instead of descending where its projected diameter is at most this many pixels.
-    pub cutoff_px: f32,
-    /// Splat shape.
-    pub kernel: Kernel,
-    /// Cull subtrees whose normal cone faces away from the eye.
-    pub backface_culling: bool,
-}
-
-impl Default for QsRenderOptions {
-    fn default() -> Self {
-        Self {
-            cutoff_px: 1.0,
-            kernel: Kernel::Square,
-            backface_culling: true,
-        }
-    }
-}
-
-/// Why a frame cannot be set up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum QsFrameError {
-    /// The camera or placement has non-finite numbers, or the cutoff is not positive.
-    BadCamera,
-}
-
-impl core::error::Error for QsFrameError {}
-
-impl core::fmt::Display for QsFrameError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            QsFrameError::BadCamera => {
-                write!(f, "camera, placement or cutoff is not finite and positive")
-            }
-        }
-    }
-}
 
 /// A positive constant as a fixed-point multiplier: `x ↦ (x · m) >> sh`, `m ∈ [2³¹, 2³²)`, so that any
 /// `x < 2³¹` keeps 31 bits of precision and the product fits in a `u64`.
@@ -139,6 +97,8 @@ pub struct QsFrame {
     pub(crate) cutoff_px: f64,
     pub(crate) kernel: Kernel,
     pub(crate) backface: bool,
+    /// The image's width and height, pixels.
+    pub(crate) viewport: Viewport,
 }
 
 /// The integer tables of one tree in one frame.
@@ -148,8 +108,8 @@ pub struct TreeFrame {
     pub(crate) root: [i32; 3],
     /// `T[axis][a + 12]`: `(X, Y, W)` of `a` model integers along `axis`, Q23.
     pub(crate) t: [[[i32; 3]; 25]; 3],
-    /// Plane extents per model integer of radius: X (left), Y (top), W (near), 240W − X (right),
-    /// 320W − Y (bottom).
+    /// Plane extents per model integer of radius: X (left), Y (top), W (near), width·W − X
+    /// (right), height·W − Y (bottom).
     pub(crate) ext: [Scale; 5],
     /// Draw instead of descending when `lod(r) ≤ W`.
     pub(crate) lod: Scale,
@@ -178,40 +138,19 @@ impl QsFrame {
     /// Sets up a frame of `file`, placed in the world by `placement`, seen by `camera`.
     ///
     /// # Errors
-    /// [`QsFrameError::BadCamera`] for non-finite input or a cutoff that is not positive.
+    /// [`FrameError::BadCamera`] for non-finite input or a cutoff that is not positive.
     pub fn new(
         file: &QSplat<'_>,
         placement: &Placement,
         camera: &Camera,
-        opts: &QsRenderOptions,
-    ) -> Result<Self, QsFrameError> {
+        opts: &RenderOptions,
+    ) -> Result<Self, FrameError> {
         let cutoff = f64::from(opts.cutoff_px);
-        if !(cutoff > 0.0
-            && cutoff.is_finite()
-            && placement.scale > 0.0
-            && placement.scale.is_finite()
-            && camera.focal_px.is_finite()
-            && camera.focal_px > 0.0)
-        {
-            return Err(QsFrameError::BadCamera);
-        }
+        let projection = Projection::new(camera, placement)
+            .filter(|_| cutoff > 0.0 && cutoff.is_finite())
+            .ok_or(FrameError::BadCamera)?;
         let f = camera.focal_px;
-        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
-        let rx = camera::add(
-            camera::scale(camera.right, f),
-            camera::scale(camera.forward, cx),
-        );
-        let ry = camera::add(
-            camera::scale(camera.up, -f),
-            camera::scale(camera.forward, cy),
-        );
-        let rw = camera.forward;
-        let t_eye = camera::sub(placement.translation, camera.eye);
-        let model_row = |r: Vec3| -> [f64; 4] {
-            let m = camera::scale(placement.to_model_dir(r), placement.scale);
-            [m[0], m[1], m[2], camera::dot(r, t_eye)]
-        };
-        let mut rows = [model_row(rx), model_row(ry), model_row(rw)];
+        let mut rows = projection.rows;
         let eval = |rows: &[[f64; 4]; 3], p: Vec3| -> Vec3 {
             core::array::from_fn(|k| camera::dot(row(&rows[k]), p) + rows[k][3])
         };
@@ -222,14 +161,14 @@ impl QsFrame {
             let r = f64::from(t.radius());
             let [x, y, w] = eval(&rows, c);
             let e = |k: usize| r * norm(row(&rows[k]));
-            let b =
-                (libm::fabs(x) + e(0)).max(libm::fabs(y) + e(1)) + 320.0 * (libm::fabs(w) + e(2));
+            let b = (libm::fabs(x) + e(0)).max(libm::fabs(y) + e(1))
+                + projection.side() * (libm::fabs(w) + e(2));
             bound = bound.max(b);
         }
         if !(bound.is_finite() && bound > 0.0) {
-            return Err(QsFrameError::BadCamera);
+            return Err(FrameError::BadCamera);
         }
-        let scale = RANGE / bound;
+        let scale = PROJECTED_RANGE / bound;
         for r in &mut rows {
             for v in r.iter_mut() {
                 *v *= scale;
@@ -266,6 +205,7 @@ impl QsFrame {
             cutoff_px: cutoff,
             kernel: opts.kernel,
             backface: opts.backface_culling,
+            viewport: camera.viewport,
         })
     }
 
@@ -312,8 +252,8 @@ impl QsFrame {
         let gx = [g(0, 0), g(0, 1), g(0, 2)];
         let gy = [g(1, 0), g(1, 1), g(1, 2)];
         let gw = [g(2, 0), g(2, 1), g(2, 2)];
-        let gr = camera::sub(camera::scale(gw, WIDTH as f64), gx);
-        let gb = camera::sub(camera::scale(gw, HEIGHT as f64), gy);
+        let gr = camera::sub(camera::scale(gw, f64::from(self.viewport.width)), gx);
+        let gb = camera::sub(camera::scale(gw, f64::from(self.viewport.height)), gy);
         let ext = [gx, gy, gw, gr, gb].map(|v| Scale::new(norm(v)));
         // Projected diameter 2·r·f/z: per model integer, in W units (world size × frame scale).
         let k = 2.0 * self.focal_px * unit * self.world_scale;

@@ -14,7 +14,7 @@ pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;
 
-pub use frame::{shading_material, QsFrame, QsFrameError, QsRenderOptions};
+pub use frame::{shading_material, QsFrame};
 pub use read::{ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsError, Tree};
 pub use traverse::{render_qs, render_qs_colored, ColorSink};
 

@@ -167,7 +167,11 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         let e = |k: usize| (tf.ext[k].apply(r) + PLANE_MARGIN) as i64;
         let [x, y, w] = s.xyw.map(i64::from);
         let near = i64::from(self.frame.near_w);
-        let f = [x, y, w - near, 240 * w - x, 320 * w - y];
+        let (width, height) = (
+            i64::from(self.frame.viewport.width),
+            i64::from(self.frame.viewport.height),
+        );
+        let f = [x, y, w - near, width * w - x, height * w - y];
         let mut inside = true;
         for (k, &v) in f.iter().enumerate() {
             let ek = e(k);
@@ -402,9 +406,9 @@ mod render_tests {
     #![allow(clippy::float_arithmetic)]
     use super::*;
     use crate::camera::{Camera, Placement, Sphere as BSphere, View, STANDARD_VIEWS};
-    use crate::qs::frame::QsRenderOptions;
     use crate::qs::table::sphere;
     use crate::qs::write::{bake_qs, tests::uv_sphere, QsBakeOptions};
+    use crate::render::RenderOptions;
     use crate::splat::NullSink;
     use std::collections::HashMap;
     use std::vec::Vec;
@@ -449,10 +453,10 @@ mod render_tests {
         backface: bool,
     ) -> (Vec<SampleSplat>, Stats, Camera) {
         let cam = Camera::orbit(BSphere::from_bounds(file.bounds()), view, 45.0);
-        let opts = QsRenderOptions {
+        let opts = RenderOptions {
             cutoff_px: cutoff,
             backface_culling: backface,
-            ..QsRenderOptions::default()
+            ..RenderOptions::default()
         };
         let frame = QsFrame::new(file, &Placement::IDENTITY, &cam, &opts).unwrap();
         let mut rec = Record(Vec::new());
@@ -532,7 +536,7 @@ mod render_tests {
             &file,
             &Placement::IDENTITY,
             &away,
-            &QsRenderOptions::default(),
+            &RenderOptions::default(),
         )
         .unwrap();
         let stats = render_qs(&file, &frame, &mut NullSink::default());

@@ -26,7 +26,7 @@ pub use pack::{Pack, PackError};
 pub use render::render_scene_in;
 pub use render::{
     ram_budget, render_scene, shading_table_bytes, slot_attr, slot_bits, RamBudget, Scene,
-    SceneError, SceneOptions, SceneStats,
+    SceneError, SceneStats,
 };
 
 use crate::camera::Placement;

@@ -32,14 +32,14 @@ use super::{Kind, ObjectRecord, ShadowMode, MAX_OBJECTS, MAX_SLOTS};
 use crate::camera::{self, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
 use crate::normal::NORMAL_BITS;
 #[cfg(feature = "qsplat")]
-use crate::qs::{render_qs, QSplat, QsError, QsFrame, QsRenderOptions};
-use crate::raster::Kernel;
+use crate::qs::{render_qs, QSplat, QsError, QsFrame};
+use crate::render::{FrameError, RenderOptions};
 use crate::shade::{Material, ShadingTable};
 #[cfg(feature = "shadows")]
 use crate::shadow::{cast_shadow_map, render_tg_in_scene, LightFrame, LightSpace, ShadowMap};
 use crate::splat::{SampleSplat, SplatSink, Stats};
 use crate::tg::frame::DepthRange;
-use crate::tg::{FrameError, RenderOptions, TgError, TgFrame, TriGrid, Verify};
+use crate::tg::{TgError, TgFrame, TriGrid, Verify};
 
 /// Why a scene cannot be opened or drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,12 +102,6 @@ pub enum SceneError {
         /// What its reader found.
         error: QsError,
     },
-    /// A QSplat object's frame cannot be set up (camera, placement or cutoff not finite and
-    /// positive).
-    QSplatFrame {
-        /// The object.
-        object: u8,
-    },
 }
 
 impl core::error::Error for SceneError {}
@@ -145,10 +139,6 @@ impl core::fmt::Display for SceneError {
             ),
             #[cfg(feature = "qsplat")]
             SceneError::QSplatObject { object, error } => write!(f, "object {object}: {error}"),
-            SceneError::QSplatFrame { object } => write!(
-                f,
-                "object {object}: camera, placement or cutoff is not finite and positive"
-            ),
         }
     }
 }
@@ -165,43 +155,9 @@ pub struct Scene<'a> {
     bounds: [[Vec3; 2]; MAX_OBJECTS],
 }
 
-/// How to draw a scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SceneOptions {
-    /// LOD cutoff, pixels.
-    pub cutoff_px: f32,
-    /// Splat kernel.
-    pub kernel: Kernel,
-    /// Skip backfacing samples.
-    pub backface_culling: bool,
-    /// Shadows (the pack's by default). Without the `shadows` feature, frames have none.
-    pub shadows: ShadowMode,
-    /// Unit direction towards the light, world (the pack's by default).
-    pub light_dir: Vec3,
-    /// Shadow map side, texels (the pack's by default; 256 when the pack has no shadows).
-    pub shadow_map_size: usize,
-}
-
-impl SceneOptions {
-    /// The pack's light and shadows, a 1 px cutoff, square splats, backface culling.
-    pub fn of(pack: &Pack<'_>) -> Self {
-        let (az, el) = pack.light_az_el();
-        Self {
-            cutoff_px: 1.0,
-            kernel: Kernel::Square,
-            backface_culling: true,
-            shadows: pack.shadows(),
-            light_dir: camera::direction(az, el),
-            shadow_map_size: match pack.shadow_map_size() {
-                0 => 256,
-                n => n,
-            },
-        }
-    }
-}
-
 /// What a frame of a scene did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SceneStats {
     /// All objects' counts added (`max_level` the deepest).
     pub total: Stats,
@@ -320,6 +276,21 @@ impl<'a> Scene<'a> {
     /// The sphere the views orbit.
     pub fn sphere(&self) -> Sphere {
         self.pack.sphere()
+    }
+
+    /// How the scene is drawn by default: the pack's light, shadows and shadow map side (256 when
+    /// the pack has no shadows), a 1 px cutoff, square splats, backface culling.
+    pub fn options(&self) -> RenderOptions {
+        let (az, el) = self.pack.light_az_el();
+        RenderOptions {
+            shadows: self.pack.shadows(),
+            light_dir: camera::direction(az, el),
+            shadow_map_size: match self.pack.shadow_map_size() {
+                0 => crate::render::DEFAULT_SHADOW_MAP_SIZE,
+                n => n,
+            },
+            ..RenderOptions::default()
+        }
     }
 
     /// The orbit camera of `view` about the scene's sphere, with the pack's field of view.
@@ -481,7 +452,7 @@ fn add(total: &mut Stats, s: &Stats) {
 /// bits are slots of the table [`Scene::update_table`] prepared. The caller clears the framebuffer.
 ///
 /// `shadow_depths` holds the shadow map when the options ask for shadows: at least side² depths,
-/// the side being [`SceneOptions::shadow_map_size`]; it may be empty otherwise. With shadows, each
+/// the side being [`RenderOptions::shadow_map_size`]; it may be empty otherwise. With shadows, each
 /// object's light frame is set in turn in one [`LightFrame`] on the stack (17 KB); firmware passes
 /// its own to [`render_scene_in`] instead.
 ///
@@ -491,7 +462,7 @@ fn add(total: &mut Stats, s: &Stats) {
 pub fn render_scene<S: SplatSink>(
     scene: &Scene<'_>,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     shadow_depths: &mut [u16],
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
@@ -514,7 +485,7 @@ pub fn render_scene<S: SplatSink>(
 pub fn render_scene_in<S: SplatSink>(
     scene: &Scene<'_>,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     shadow_depths: &mut [u16],
     light: &mut LightFrame,
     sink: &mut S,
@@ -525,14 +496,6 @@ pub fn render_scene_in<S: SplatSink>(
     render_shadowed(scene, camera, opts, shadow_depths, light, sink)
 }
 
-fn render_options(opts: &SceneOptions) -> RenderOptions {
-    RenderOptions {
-        cutoff_px: opts.cutoff_px,
-        kernel: opts.kernel,
-        backface_culling: opts.backface_culling,
-    }
-}
-
 /// Sets `frame` to object `i`'s tri-grid frame, its depth mapped over the scene's `range`, and
 /// returns the object's grid (`None`: no object `i`). One frame is set in place per object in turn
 /// ([`TgFrame::set`]): nothing is copied out, and tables that repeat are kept.
@@ -540,7 +503,7 @@ fn object_frame<'s, 'a>(
     scene: &'s Scene<'a>,
     i: usize,
     camera: &Camera,
-    ropts: &RenderOptions,
+    opts: &RenderOptions,
     range: DepthRange,
     frame: &mut TgFrame,
 ) -> Result<Option<&'s TriGrid<'a>>, SceneError> {
@@ -548,7 +511,7 @@ fn object_frame<'s, 'a>(
         return Ok(None);
     };
     frame
-        .set(grid.header(), &rec.placement, camera, ropts)
+        .set(grid.header(), &rec.placement, camera, opts)
         .map_err(|error| SceneError::Frame {
             object: i as u8,
             error,
@@ -561,12 +524,11 @@ fn object_frame<'s, 'a>(
 fn render_shadowed<S: SplatSink>(
     scene: &Scene<'_>,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     shadow_depths: &mut [u16],
     light: &mut LightFrame,
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    let ropts = render_options(opts);
     let range = scene.depth_range(camera);
     let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
@@ -589,7 +551,7 @@ fn render_shadowed<S: SplatSink>(
             let Some(rec) = scene.pack.object(i).filter(|r| r.casts_shadows) else {
                 continue;
             };
-            if let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? {
+            if let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? {
                 light.set_in_space(grid.header(), &rec.placement, &space);
                 stats.shadow_fill_nodes += cast_shadow_map(grid, &frame, light, &mut map);
             }
@@ -603,7 +565,7 @@ fn render_shadowed<S: SplatSink>(
             stats.objects[i] = st;
             continue;
         }
-        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
+        let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? else {
             continue;
         };
         let Some(rec) = scene.pack.object(i) else {
@@ -629,10 +591,9 @@ fn render_shadowed<S: SplatSink>(
 fn render_unshadowed<S: SplatSink>(
     scene: &Scene<'_>,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    let ropts = render_options(opts);
     let range = scene.depth_range(camera);
     let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
@@ -642,7 +603,7 @@ fn render_unshadowed<S: SplatSink>(
             stats.objects[i] = st;
             continue;
         }
-        let Some(grid) = object_frame(scene, i, camera, &ropts, range, &mut frame)? else {
+        let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? else {
             continue;
         };
         let mut s = slotted(scene, i, sink);
@@ -660,20 +621,18 @@ fn draw_qsplat<S: SplatSink>(
     scene: &Scene<'_>,
     i: usize,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     range: DepthRange,
     sink: &mut S,
 ) -> Result<Option<Stats>, SceneError> {
     let (Some(file), Some(rec)) = (scene.qsplat(i), scene.pack.object(i)) else {
         return Ok(None);
     };
-    let qopts = QsRenderOptions {
-        cutoff_px: opts.cutoff_px,
-        kernel: opts.kernel,
-        backface_culling: opts.backface_culling,
-    };
-    let mut frame = QsFrame::new(file, &rec.placement, camera, &qopts)
-        .map_err(|_| SceneError::QSplatFrame { object: i as u8 })?;
+    let mut frame =
+        QsFrame::new(file, &rec.placement, camera, opts).map_err(|error| SceneError::Frame {
+            object: i as u8,
+            error,
+        })?;
     frame.share_depth_range(range);
     let mut s = slotted(scene, i, sink);
     Ok(Some(render_qs(file, &frame, &mut s)))
@@ -685,7 +644,7 @@ fn draw_qsplat<S: SplatSink>(
     _scene: &Scene<'_>,
     _i: usize,
     _camera: &Camera,
-    _opts: &SceneOptions,
+    _opts: &RenderOptions,
     _range: DepthRange,
     _sink: &mut S,
 ) -> Result<Option<Stats>, SceneError> {

@@ -3,7 +3,7 @@
 //!
 //! The projection of a model point `p` is the homogeneous `(X, Y, W) = A·[p; 1]` with `X/W`, `Y/W` in
 //! pixels and `W` the camera depth, all scaled by one per-frame factor so that
-//! `max(|X|, |Y|) + 320·|W| ≤ 2³⁰` over the root cube (fixed.rs). Because the map is linear:
+//! `max(|X|, |Y|) + S·|W| ≤ 2³⁰` over the root cube, `S` the image's larger side (fixed.rs). Because the map is linear:
 //! - a child's centre is its parent's plus `disp[level][slot]` (3 adds, eq. 1–2);
 //! - a cell's extent along each frustum plane function is a per-level constant `ext[level]`, so
 //!   culling and the inside test are a few adds and compares (§5.2);
@@ -33,9 +33,10 @@
 
 use super::read::Header;
 use super::MAX_LEVELS;
-use crate::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use crate::camera::{Camera, Placement, Projection, Vec3, Viewport, PROJECTED_RANGE};
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
 use crate::raster::Kernel;
+use crate::render::{FrameError, RenderOptions};
 
 /// Child slots of the largest ρ the traversal draws (ρ = 3).
 pub const MAX_SLOTS: usize = 27;
@@ -44,8 +45,6 @@ pub const MAX_SLOTS: usize = 27;
 pub const SLOT_TABLE: usize = 32;
 /// One level's displacement per child slot ([`SLOT_TABLE`] entries).
 pub type SlotTable = [[i32; 3]; SLOT_TABLE];
-/// Bound on `max(|X|, |Y|) + 320·|W|` over the root cube.
-const RANGE: f64 = (1u64 << 30) as f64;
 /// A square footprint's side over the cell's projected side (see the module docs).
 pub const FOOTPRINT: f64 = 1.1;
 /// A round footprint's diameter over the cell's projected side: the disc of a square footprint's
@@ -63,50 +62,6 @@ pub(crate) const TO_MODEL_BITS: u32 = 16;
 /// (a wider cone) never cull.
 pub const CONE_ANGLES_DEG: [f64; 8] = [90.0, 4.0, 8.0, 15.0, 25.0, 40.0, 60.0, 90.0];
 
-/// How to render.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderOptions {
-    /// Stop descending where a cell's projected diameter is at most this many pixels.
-    pub cutoff_px: f32,
-    /// Splat shape.
-    pub kernel: Kernel,
-    /// Skip samples whose normal faces away from every ray of the view.
-    pub backface_culling: bool,
-}
-
-impl Default for RenderOptions {
-    fn default() -> Self {
-        Self {
-            cutoff_px: 1.0,
-            kernel: Kernel::Square,
-            backface_culling: true,
-        }
-    }
-}
-
-/// Why a frame cannot be set up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FrameError {
-    /// The traversal draws ρ = 2 and 3 only (4 and 5 are for the storage comparison).
-    UnsupportedRho(u8),
-    /// The camera or placement has non-finite numbers, or the cutoff is not positive.
-    BadCamera,
-}
-
-impl core::error::Error for FrameError {}
-
-impl core::fmt::Display for FrameError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            FrameError::UnsupportedRho(r) => write!(f, "rendering supports rho 2 and 3, not {r}"),
-            FrameError::BadCamera => {
-                write!(f, "camera, placement or cutoff is not finite and positive")
-            }
-        }
-    }
-}
-
 /// Half-extents of a cell of one level along the five frustum plane functions, in the frame's
 /// integer units, rounded up with a margin for the displacement rounding.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -117,9 +72,9 @@ pub struct Extents {
     pub y: i32,
     /// Along `W` (near plane `W ≥ near_w`).
     pub w: i32,
-    /// Along `240·W − X` (right plane).
+    /// Along `width·W − X` (right plane).
     pub r: i32,
-    /// Along `320·W − Y` (bottom plane).
+    /// Along `height·W − Y` (bottom plane).
     pub b: i32,
 }
 
@@ -193,6 +148,9 @@ pub struct TgFrame {
     /// [`TgFrame::set`] keeps the tables when it repeats.
     backface_key: Option<BackfaceKey>,
     pub(crate) kernel: Kernel,
+    /// The image's width and height, pixels (the right and bottom planes: `width·W − X ≥ 0`).
+    pub(crate) width: i32,
+    pub(crate) height: i32,
 }
 
 fn row(a: &[f64; 4]) -> Vec3 {
@@ -315,6 +273,8 @@ impl TgFrame {
         frontface: [0; NORMAL_COUNT / 32],
         backface_key: None,
         kernel: Kernel::Square,
+        width: Viewport::DEFAULT.width as i32,
+        height: Viewport::DEFAULT.height as i32,
     };
 
     /// [`TgFrame::new`] in place: a scene sets one frame per object in turn, so that the frame
@@ -335,35 +295,13 @@ impl TgFrame {
             return Err(FrameError::UnsupportedRho(header.rho));
         }
         let cutoff = f64::from(opts.cutoff_px);
-        if !(cutoff > 0.0
-            && cutoff.is_finite()
-            && placement.scale > 0.0
-            && camera.focal_px.is_finite())
-        {
-            return Err(FrameError::BadCamera);
-        }
+        let projection = Projection::new(camera, placement)
+            .filter(|_| cutoff > 0.0 && cutoff.is_finite())
+            .ok_or(FrameError::BadCamera)?;
         let f = camera.focal_px;
-        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
-        // Rows of (X, Y, W) as functions of the world point minus the eye.
-        let rx = camera::add(
-            camera::scale(camera.right, f),
-            camera::scale(camera.forward, cx),
-        );
-        let ry = camera::add(
-            camera::scale(camera.up, -f),
-            camera::scale(camera.forward, cy),
-        );
-        let rw = camera.forward;
-        // Compose with the placement: world = R·(s·p) + t, so the model-space row is s·Rᵀ·row and the
-        // constant is row·(t − eye).
-        let t_eye = camera::sub(placement.translation, camera.eye);
-        let model_row = |r: Vec3| -> [f64; 4] {
-            let m = camera::scale(placement.to_model_dir(r), placement.scale);
-            [m[0], m[1], m[2], camera::dot(r, t_eye)]
-        };
-        let a = [model_row(rx), model_row(ry), model_row(rw)];
-        let eval =
-            |p: Vec3| -> Vec3 { core::array::from_fn(|k| camera::dot(row(&a[k]), p) + a[k][3]) };
+        let (cx, cy) = camera.viewport.center();
+        let a = projection.rows;
+        let eval = |p: Vec3| projection.eval(p);
         let side = header.side64;
         let origin = header.origin64;
         let mut bound = 0.0f64;
@@ -371,12 +309,12 @@ impl TgFrame {
             let p =
                 core::array::from_fn(|k| origin[k] + if corner >> k & 1 != 0 { side } else { 0.0 });
             let [x, y, w] = eval(p);
-            bound = bound.max(libm::fabs(x).max(libm::fabs(y)) + 320.0 * libm::fabs(w));
+            bound = bound.max(libm::fabs(x).max(libm::fabs(y)) + projection.side() * libm::fabs(w));
         }
         if !(bound.is_finite() && bound > 0.0) {
             return Err(FrameError::BadCamera);
         }
-        let scale = RANGE / bound;
+        let scale = PROJECTED_RANGE / bound;
         let centre = origin.map(|o| o + 0.5 * side);
         let root_f = eval(centre).map(|v| v * scale);
         let root = root_f.map(to_i32);
@@ -393,11 +331,10 @@ impl TgFrame {
         // map and the LOD keep the camera's plane, so that a frame whose cells all lie beyond both
         // draws the same pixels as without the precision plane.
         let camera_near_w = to_i32((camera.near * scale).max(1.0));
-        let near_w = camera_near_w.max(precision_near_w(header));
+        let near_w = camera_near_w.max(precision_near_w(header, camera.viewport));
         let world_side = side * placement.scale;
         let (rxm, rym, rwm) = (row(&a[0]), row(&a[1]), row(&a[2]));
-        let rr = camera::sub(camera::scale(rwm, WIDTH as f64), rxm);
-        let rb = camera::sub(camera::scale(rwm, HEIGHT as f64), rym);
+        let [rr, rb] = projection.right_bottom();
         let mut cell = side; // model units
         for level in 0..=usize::from(header.depth) {
             if level > 0 {
@@ -585,6 +522,8 @@ impl TgFrame {
         self.set_tick_depth();
         self.w_per_unit = scale;
         self.kernel = opts.kernel;
+        self.width = i32::from(camera.viewport.width);
+        self.height = i32::from(camera.viewport.height);
         Ok(())
     }
 
@@ -632,16 +571,18 @@ pub const PRECISION_ERROR_PX: f64 = 0.4;
 /// The frame's precision plane, in `W` units: beyond it the rounding of the tables moves no splat
 /// by more than [`PRECISION_ERROR_PX`], so a frame draws nothing nearer (issue 18).
 ///
-/// One scale covers the whole root cube (`max(|X|, |Y|) + 320·|W| ≤ 2³⁰`), so `W` has about 2²¹
+/// One scale covers the whole root cube (`max(|X|, |Y|) + S·|W| ≤ 2³⁰`, `S` the image's larger side:
+/// 320 for the reference frame), so `W` has about 2²¹
 /// steps over the cube's depth, and a cell ten steps from the eye is drawn with an error of
 /// pixels. The proof of the bound: a drawn splat's `(X, Y, W)` is the root's rounded centre plus one
 /// rounded displacement per level, each within half a step of the exact value per component, plus,
 /// for an interior cell, its children's centroid, `Σₐ oₐ·tickₐ >> 6` with `|oₐ| ≤ 64·(ρ − 1)` and
 /// each tick within half a step: in all within `E = (depth + 1)/2 + 3·(ρ − 1)/2 + 1` steps per
 /// component (the `+ 1` the shift's floor). A pixel coordinate `p = X / W` then errs by at most
-/// `(E + |p|·E) / (W − E)`, so `W ≥ (1 + 400)·E / PRECISION_ERROR_PX + E` bounds it by
-/// [`PRECISION_ERROR_PX`] for every splat centred within 80 px of the screen (`|p| ≤ 400`); a
-/// larger splat centred farther off the screen errs by at most that times `|p| / 400`. A splat's
+/// `(E + |p|·E) / (W − E)`, so `W ≥ (1 + 1.25·S)·E / PRECISION_ERROR_PX + E` bounds it by
+/// [`PRECISION_ERROR_PX`] for every splat centred within a quarter of the larger side off the
+/// image (`|p| ≤ 1.25·S`: 400 for 240 × 320); a larger splat centred farther off the image errs by
+/// at most that times `|p| / (1.25·S)`. A splat's
 /// size errs by at most `E / (W − E)` of itself (0.1 % there). Not from the frame's scale, and
 /// the same at any depth: the reciprocal's 2⁻¹⁷ (0.003 px), the Q8 rounding (0.002 px) and the
 /// centroid's Q6 weights (1/128 of the cell's projected side); the linearised loops start farther
@@ -653,10 +594,11 @@ pub const PRECISION_ERROR_PX: f64 = 0.4;
 /// the same pixels; an eye nearer a surface than that sees it clipped, as by a near plane, instead
 /// of misplaced by up to pixels (0.8 px at ten steps, the stability suite's stiffest case before
 /// issue 18). It costs nothing per node: the traversal already tests `W ≥ near_w`.
-pub fn precision_near_w(header: &Header) -> i32 {
+pub fn precision_near_w(header: &Header, viewport: Viewport) -> i32 {
     let steps = 0.5 * (f64::from(header.depth) + 1.0) + 1.5 * (f64::from(header.rho) - 1.0) + 1.0;
+    let reach = 1.25 * f64::from(viewport.max_side());
     to_i32(libm::ceil(
-        (1.0 + 1.25 * HEIGHT as f64) * steps / PRECISION_ERROR_PX + steps,
+        (1.0 + reach) * steps / PRECISION_ERROR_PX + steps,
     ))
 }
 
@@ -731,6 +673,7 @@ impl DepthRange {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera;
 
     #[test]
     fn to_i32_is_the_clamped_cast() {

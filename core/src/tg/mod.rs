@@ -10,7 +10,7 @@ pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;
 
-pub use frame::{FrameError, RenderOptions, TgFrame};
+pub use frame::TgFrame;
 pub use read::{Header, LevelArrays, LevelDir, TgError, TriGrid, Verify};
 pub use traverse::{
     render_nodes, render_tg, render_tg_with, NoShadows, NodeData, Resident, ShadowHooks,

@@ -53,10 +53,14 @@ use std::process::{Command, ExitCode};
 
 use anyhow::{bail, ensure, Context, Result};
 use pocketsplat_core::crc::crc32;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::Verify;
-use pocketsplat_pda::{frame_specs_for, Format, FrameReport, FrameSpec, Model, Phase, Shadows};
+use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Model, Phase, Shadows};
+
+/// The model formats a benchmark draws (a scene pack has its own run, `--big-scene`).
+const MODEL_FORMATS: [FileFormat; 2] = [FileFormat::TriGrid, FileFormat::QSplat];
 use pocketsplat_tests::arm::{
     baked_bunny_as, check_memory, compare_frames, frame_costs, have_qemu, Counter, Firmware,
     FrameCost, HostFrames, BENCH_TARGETS,
@@ -72,7 +76,7 @@ const CLOCK_HZ: f64 = 200e6;
 
 struct Args {
     models: Vec<PathBuf>,
-    formats: Vec<Format>,
+    formats: Vec<FileFormat>,
     targets: Vec<String>,
     shadows: bool,
     json: bool,
@@ -93,7 +97,7 @@ const USAGE: &str = "usage: arm-bench [--model FILE.tg|FILE.qs]... [--format tg|
 fn parse_args() -> Result<Args> {
     let mut args = Args {
         models: Vec::new(),
-        formats: Format::ALL.to_vec(),
+        formats: MODEL_FORMATS.to_vec(),
         targets: Vec::new(),
         shadows: true,
         json: false,
@@ -116,10 +120,12 @@ fn parse_args() -> Result<Args> {
             "--format" => {
                 let v = value()?;
                 args.formats = match v.as_str() {
-                    "both" => Format::ALL.to_vec(),
-                    name => vec![Format::from_name(name).with_context(|| {
-                        format!("--format {name}: want tg, qsplat or both\n{USAGE}")
-                    })?],
+                    "both" => MODEL_FORMATS.to_vec(),
+                    name => vec![FileFormat::from_name(name)
+                        .filter(|f| MODEL_FORMATS.contains(f))
+                        .with_context(|| {
+                            format!("--format {name}: want tg, qsplat or both\n{USAGE}")
+                        })?],
                 };
             }
             "--target" => args.targets.push(value()?),
@@ -556,12 +562,13 @@ fn bench_model(
     const OFF: &[Shadows] = &[Shadows::Off];
     // (firmware, the modes it renders)
     let variants: Vec<(Firmware<'_>, &'static [Shadows])> = match model.format() {
-        Format::TriGrid if args.shadows => vec![
+        FileFormat::TriGrid if args.shadows => vec![
             (firmware(&[]), OFF),
             (firmware(&["shadows"]), &Shadows::ALL),
         ],
-        Format::TriGrid => vec![(firmware(&[]), OFF)],
-        Format::QSplat => vec![(firmware(&["qsplat"]), OFF)],
+        FileFormat::TriGrid => vec![(firmware(&[]), OFF)],
+        FileFormat::QSplat => vec![(firmware(&["qsplat"]), OFF)],
+        FileFormat::Pack => bail!("a scene pack is benchmarked by --big-scene"),
     };
     let mut rows: Vec<Row> = Vec::new();
     let mut builds = Vec::new();
@@ -681,7 +688,7 @@ fn run() -> Result<()> {
     let models: Vec<Model<'_>> = benches
         .iter()
         .map(|b| {
-            Model::open(&b.bytes, Verify::Full)
+            Model::open(&b.bytes)
                 .with_context(|| format!("{}: not a valid model", b.path.display()))
         })
         .collect::<Result<_>>()?;
@@ -697,7 +704,7 @@ fn run() -> Result<()> {
     }
     let counter = Counter::build()?;
     for target in &args.targets {
-        let mut done: Vec<(&Bench, Format, Vec<Row>)> = Vec::new();
+        let mut done: Vec<(&Bench, FileFormat, Vec<Row>)> = Vec::new();
         for (b, model) in benches.iter().zip(&models) {
             let Benched { rows, builds } = bench_model(target, b, model, &args, &counter)?;
             if args.json {
@@ -720,8 +727,10 @@ fn run() -> Result<()> {
             }
             done.push((b, model.format(), rows));
         }
-        let of = |f: Format| done.iter().find(|(_, format, _)| *format == f);
-        if let (false, Some(tg), Some(qs)) = (args.json, of(Format::TriGrid), of(Format::QSplat)) {
+        let of = |f: FileFormat| done.iter().find(|(_, format, _)| *format == f);
+        if let (false, Some(tg), Some(qs)) =
+            (args.json, of(FileFormat::TriGrid), of(FileFormat::QSplat))
+        {
             print_side_by_side(target, (&tg.0.name, &tg.2), (&qs.0.name, &qs.2));
         }
     }
@@ -747,6 +756,7 @@ fn describe(model: &Model<'_>) -> String {
                 c.trees, c.max_depth, c.leaves, c.interior
             )
         }
+        other => format!("a {}", other.format().name()),
     }
 }
 
@@ -761,7 +771,7 @@ fn model_name(path: &Path) -> String {
 /// their cost and PSNR against 1 px, as a table or (`json`) one JSON object per frame; then the
 /// profile of frame `profile_of` (`VIEW:CUTOFF`), if given.
 fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) -> Result<()> {
-    use pocketsplat_core::scene::{Pack, Scene, SceneOptions};
+    use pocketsplat_core::scene::{Pack, Scene};
     use pocketsplat_core::shade::rgb565_to_rgb888;
     use pocketsplat_pda::scene::scene_frame_specs;
     use pocketsplat_sim::metrics::psnr_rgb8;
@@ -779,7 +789,7 @@ fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) 
         Pack::open(&bytes).map_err(anyhow::Error::msg)?,
         Verify::Full,
     )?;
-    let opts = SceneOptions::of(scene.pack());
+    let opts = scene.options();
     let kernel = opts.kernel;
     // The firmware's index of the profiled frame, found before anything is built.
     let profiled = profile_of

@@ -16,7 +16,7 @@
 use std::process::ExitCode;
 
 use anyhow::{ensure, Context, Result};
-use pocketsplat_pda::Format;
+use pocketsplat_core::format::FileFormat;
 use pocketsplat_tests::arm::{
     baked_big_scene, baked_bunny_as, check_memory, have_qemu, target_dir, Firmware, TARGET,
 };
@@ -29,7 +29,7 @@ const TIMEOUT_S: u32 = 900;
 #[derive(Clone, Copy)]
 enum Linked {
     /// The bunny in this format.
-    Bunny(Format),
+    Bunny(FileFormat),
     /// The Big Scene's pack (`boards/sim/scenes/big.toml`).
     BigScene,
 }
@@ -55,25 +55,25 @@ const SETS: [Set; 7] = [
     },
     Set {
         features: &[],
-        model: Some(Linked::Bunny(Format::TriGrid)),
+        model: Some(Linked::Bunny(FileFormat::TriGrid)),
         image: false,
         what: "a tri-grid, no shadows",
     },
     Set {
         features: &["shadows"],
-        model: Some(Linked::Bunny(Format::TriGrid)),
+        model: Some(Linked::Bunny(FileFormat::TriGrid)),
         image: false,
         what: "a tri-grid with one-pass and two-pass shadows (256² map)",
     },
     Set {
         features: &["qsplat"],
-        model: Some(Linked::Bunny(Format::QSplat)),
+        model: Some(Linked::Bunny(FileFormat::QSplat)),
         image: false,
         what: "a QSplat file (tri-grid code linked too)",
     },
     Set {
         features: &["qsplat", "shadows"],
-        model: Some(Linked::Bunny(Format::TriGrid)),
+        model: Some(Linked::Bunny(FileFormat::TriGrid)),
         image: false,
         what: "both formats and shadows, drawing a tri-grid",
     },
@@ -117,8 +117,8 @@ fn run() -> Result<()> {
             None => None,
         };
         let image = if set.image {
-            let bunny =
-                baked_bunny_as(Format::TriGrid)?.context("the bunny is not in ../shared/models")?;
+            let bunny = baked_bunny_as(FileFormat::TriGrid)?
+                .context("the bunny is not in ../shared/models")?;
             let dir = target_dir().join("models/sd-bunny-sizes");
             std::fs::create_dir_all(&dir)?;
             Some(make_image(&dir, &std::fs::read(&bunny)?, "BUNNY.TG"))

@@ -24,12 +24,13 @@ use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::normal::{self, NORMAL_COUNT};
 use pocketsplat_core::raster::{drawn_pixels, Kernel, MAX_SPLAT_PX};
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::shade::{phong, to_rgb565, ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{SampleSplat, ShadedRaster, SplatSink, Stats};
 use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND, PRECISION_ERROR_PX};
 use pocketsplat_core::tg::write::write_tg;
-use pocketsplat_core::tg::{render_tg, RenderOptions, TgFrame, TriGrid, Verify};
+use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
 
 use crate::render::FrameBuffers;
 

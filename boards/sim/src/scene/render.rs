@@ -8,8 +8,9 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Result};
 use pocketsplat_core::camera::{self, Camera, Sphere, View};
 use pocketsplat_core::raster::{Framebuffer, Kernel};
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::scene::{
-    ram_budget, render_scene, RamBudget, Scene, SceneOptions, SceneStats, ShadowMode, MAX_SLOTS,
+    ram_budget, render_scene, RamBudget, Scene, SceneStats, ShadowMode, MAX_SLOTS,
 };
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
@@ -108,8 +109,8 @@ impl PackSettings {
     }
 
     /// The core's options for `scene`.
-    pub fn options(&self, scene: &Scene<'_>) -> SceneOptions {
-        let mut o = SceneOptions::of(scene.pack());
+    pub fn options(&self, scene: &Scene<'_>) -> RenderOptions {
+        let mut o = scene.options();
         o.cutoff_px = self.cutoff_px;
         o.kernel = self.kernel;
         if let Some(s) = self.shadows {
@@ -148,7 +149,7 @@ impl PackSettings {
 pub fn render_pack_from(
     scene: &Scene<'_>,
     camera: &Camera,
-    opts: &SceneOptions,
+    opts: &RenderOptions,
     levels: Option<&Levels>,
     table: &mut SceneTable,
     out: &mut FrameBuffers,

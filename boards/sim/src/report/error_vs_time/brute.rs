@@ -24,7 +24,8 @@ use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
 use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
-use pocketsplat_core::scene::{slot_attr, slot_bits, Scene, SceneOptions};
+use pocketsplat_core::render::RenderOptions;
+use pocketsplat_core::scene::{slot_attr, slot_bits, Scene};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
@@ -284,7 +285,7 @@ impl SceneCloud {
         &self,
         scene: &Scene<'_>,
         camera: &Camera,
-        opts: &SceneOptions,
+        opts: &RenderOptions,
         table: &mut SceneTable,
         out: &mut FrameBuffers,
     ) -> FrameReport {

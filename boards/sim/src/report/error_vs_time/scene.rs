@@ -10,7 +10,8 @@
 use anyhow::{anyhow, Context, Result};
 use pocketsplat_core::bake::TriMesh;
 use pocketsplat_core::camera::{Camera, View};
-use pocketsplat_core::scene::{Pack, Scene as PackScene, SceneOptions, ShadowMode};
+use pocketsplat_core::render::RenderOptions;
+use pocketsplat_core::scene::{Pack, Scene as PackScene, ShadowMode};
 use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::Verify;
 
@@ -107,7 +108,7 @@ impl<'a> PackMethod<'a> {
 
 /// The camera and options of a frame of `scene`: the pack's light and field of view, the frame's
 /// knobs.
-fn frame(scene: &PackScene<'_>, view: View, cfg: &FrameConfig) -> (Camera, SceneOptions) {
+fn frame(scene: &PackScene<'_>, view: View, cfg: &FrameConfig) -> (Camera, RenderOptions) {
     let s = PackSettings {
         cutoff_px: cfg.cutoff_px,
         kernel: cfg.kernel,
@@ -226,7 +227,7 @@ pub fn scene_subject<'a>(name: &str, bakes: &'a SceneBakes) -> Result<Subject<'a
     let brute = BruteSceneMethod::new(&trigrid);
     // The reference sees what the pack's frames see: its sphere, field of view and light.
     let frame = PackSettings::new(View::new(0.0, 0.0, 1.0));
-    let light = SceneOptions::of(trigrid.scene().pack()).light_dir;
+    let light = trigrid.scene().options().light_dir;
     let shadows = trigrid.scene().pack().shadows();
     let views: Vec<(String, View)> = bakes.views.clone();
     // The camera needs the open scene; keep one for the reference closure.
