@@ -184,6 +184,8 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
     }
 
     /// Recomputes slot `k`'s colours for material `m`, light `l` and viewer `v`.
+    // Out of line: its loop over the 8192 codes is the same code whoever asks for a rebuild.
+    #[inline(never)]
     fn build_slot(&mut self, k: usize, m: &Material, l: Vec3, v: Vec3) {
         let lq = q14(l);
         let hq = q14(camera::normalize(camera::add(l, v)));

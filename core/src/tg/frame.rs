@@ -148,9 +148,10 @@ pub struct TgFrame {
     /// [`TgFrame::set`] keeps the tables when it repeats.
     backface_key: Option<BackfaceKey>,
     pub(crate) kernel: Kernel,
-    /// The image's width and height, pixels (the right and bottom planes: `width·W − X ≥ 0`).
-    pub(crate) width: i32,
-    pub(crate) height: i32,
+    /// The image (the right and bottom planes: `width·W − X ≥ 0`, `height·W − Y ≥ 0`). Two bytes
+    /// per side: a frame's layout puts it with the byte fields after the tables, so that no hot
+    /// table moves past the 4 KB a Thumb-2 load reaches from the frame's address.
+    pub(crate) viewport: Viewport,
 }
 
 fn row(a: &[f64; 4]) -> Vec3 {
@@ -273,8 +274,7 @@ impl TgFrame {
         frontface: [0; NORMAL_COUNT / 32],
         backface_key: None,
         kernel: Kernel::Square,
-        width: Viewport::DEFAULT.width as i32,
-        height: Viewport::DEFAULT.height as i32,
+        viewport: Viewport::DEFAULT,
     };
 
     /// [`TgFrame::new`] in place: a scene sets one frame per object in turn, so that the frame
@@ -522,8 +522,7 @@ impl TgFrame {
         self.set_tick_depth();
         self.w_per_unit = scale;
         self.kernel = opts.kernel;
-        self.width = i32::from(camera.viewport.width);
-        self.height = i32::from(camera.viewport.height);
+        self.viewport = camera.viewport;
         Ok(())
     }
 

@@ -551,8 +551,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let f = self.frame;
         let e = &f.ext[l];
         let [x, y, w] = c;
-        let r = f.width * w - x;
-        let b = f.height * w - y;
+        let r = i32::from(f.viewport.width) * w - x;
+        let b = i32::from(f.viewport.height) * w - y;
         let outside =
             w + e.w < f.near_w || x + e.x < 0 || r + e.r < 0 || y + e.y < 0 || b + e.b < 0;
         let inside =

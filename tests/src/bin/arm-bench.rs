@@ -369,9 +369,15 @@ fn json_row(model: &Bench, target: &str, r: &Row) -> serde_json::Value {
 fn profile(fw: &Firmware<'_>, index: usize, what: &str, counter: &Counter) -> Result<()> {
     let elf = fw.build()?;
     let n = Phase::ALL.len();
+    let phase = match std::env::var("ARM_BENCH_PHASE").as_deref() {
+        Ok("setup") => Phase::Setup,
+        Ok("table") => Phase::Table,
+        Ok("clear") => Phase::Clear,
+        _ => Phase::Traverse,
+    };
     let traverse = Phase::ALL
         .iter()
-        .position(|&p| p == Phase::Traverse)
+        .position(|&p| p == phase)
         .expect("a phase");
     let out = elf.with_extension("profile");
     let counter = Counter {
