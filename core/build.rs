@@ -13,6 +13,18 @@ mod normal;
 mod qs_normal;
 
 fn main() {
+    // The Cortex-M example links with cortex-m-rt's script and its own memory map (examples/
+    // memory.x): link arguments of the examples only, and only for bare-metal ARM, so that no other
+    // build of this package or of a crate using it sees them.
+    let arm = std::env::var("CARGO_CFG_TARGET_ARCH").as_deref() == Ok("arm")
+        && std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
+    if arm {
+        let dir = std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default())
+            .join("examples");
+        println!("cargo:rustc-link-arg-examples=-L{}", dir.display());
+        println!("cargo:rustc-link-arg-examples=-Tlink.x");
+        println!("cargo:rerun-if-changed=examples/memory.x");
+    }
     println!("cargo:rerun-if-changed=src/normal/code.rs");
     println!("cargo:rerun-if-changed=src/qs/normal.rs");
     println!("cargo:rerun-if-changed=build.rs");

@@ -369,6 +369,45 @@ impl<'a> From<Scene<'a>> for Model<'a> {
 /// Where [`render`] draws: pixels with a depth test, the shading table (kept between frames, so
 /// that it is rebuilt only when the view or light turns: `M` material slots, 1 for a model, a
 /// scene's slot count for a pack) and, for shadows, a shadow map and the light's tables.
+///
+/// The project's own [`Framebuffer`](crate::raster::Framebuffer) is the fastest pixels on a
+/// device (its size is known at compile time); a finished frame goes to any display in one
+/// contiguous write, as an embedded-graphics image. Here a landscape 320 × 240 frame:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use embedded_graphics_core::image::ImageDrawable;
+/// use pocketsplat_core::raster::Framebuffer;
+/// use pocketsplat_core::shade::ShadingTable;
+/// use pocketsplat_core::{render, Model, RenderOptions, Target, View};
+/// # use core::convert::Infallible;
+/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
+/// # /// A 320 × 240 display that counts the lit pixels it is sent.
+/// # struct Landscape(usize);
+/// # impl OriginDimensions for Landscape { fn size(&self) -> Size { Size::new(320, 240) } }
+/// # impl DrawTarget for Landscape {
+/// #     type Color = Rgb565;
+/// #     type Error = Infallible;
+/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
+/// #         self.0 += px.into_iter().filter(|Pixel(_, c)| *c != Rgb565::BLACK).count();
+/// #         Ok(())
+/// #     }
+/// # }
+/// // Statics on a device; boxes here.
+/// let (mut color, mut depth) = (Box::new([[0u16; 320]; 240]), Box::new([[0u16; 320]; 240]));
+/// let mut table = ShadingTable::<1>::new();
+/// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+///
+/// let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
+/// let options = RenderOptions { cutoff_px: 2.0, ..RenderOptions::default() };
+/// render(&model, &model.orbit(View::new(0.0, 30.0, 2.2)), &options, &mut target)?;
+///
+/// let mut display = Landscape(0);
+/// target.pixels.draw(&mut display)?; // one fill_contiguous of 320 × 240 pixels
+/// assert!(display.0 > 1000);
+/// # Ok(())
+/// # }
+/// ```
 pub struct Target<'t, P, const M: usize = 1> {
     /// The pixels (a [`Framebuffer`](crate::raster::Framebuffer), a
     /// [`DisplayTarget`](crate::raster::DisplayTarget)).
@@ -391,7 +430,49 @@ impl<'t, P: DepthTarget, const M: usize> Target<'t, P, M> {
 
     /// With a shadow map (at least [`RenderOptions::shadow_map_size`]² depths) and a place for the
     /// light's per-frame tables (17 KB: a `static` on a device, [`LightFrame::UNSET`] to start),
-    /// so that frames may ask for shadows.
+    /// so that frames may ask for shadows (Duguet §5.3: one pass, the light's order).
+    ///
+    /// ```
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use pocketsplat_core::raster::DisplayTarget;
+    /// use pocketsplat_core::shade::{ShadingTable, ShadowMode};
+    /// use pocketsplat_core::shadow::LightFrame;
+    /// use pocketsplat_core::{render, Model, RenderOptions, Target, View};
+    /// # use core::convert::Infallible;
+    /// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
+    /// # /// A 160 × 128 display that keeps the pixels it is sent.
+    /// # struct Tft(Vec<Rgb565>);
+    /// # impl OriginDimensions for Tft { fn size(&self) -> Size { Size::new(160, 128) } }
+    /// # impl DrawTarget for Tft {
+    /// #     type Color = Rgb565;
+    /// #     type Error = Infallible;
+    /// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
+    /// #         for Pixel(p, c) in px { self.0[p.y as usize * 160 + p.x as usize] = c; }
+    /// #         Ok(())
+    /// #     }
+    /// # }
+    /// let mut tft = Tft(vec![Rgb565::BLACK; 160 * 128]);
+    /// let mut depth = vec![0u16; 160 * 128];
+    /// let (mut map, mut light) = (vec![0u16; 128 * 128], Box::new(LightFrame::UNSET));
+    /// let mut table = ShadingTable::<1>::new();
+    /// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+    ///
+    /// let pixels = DisplayTarget::new(&mut tft, &mut depth).expect("a depth per pixel");
+    /// let mut target = Target::new(pixels, &mut table).with_shadows(&mut map, &mut light);
+    /// let options = RenderOptions {
+    ///     shadows: ShadowMode::OnePass,
+    ///     shadow_map_size: 128,
+    ///     ..RenderOptions::default()
+    /// };
+    /// let drawn = render(&model, &model.orbit(View::new(30.0, 40.0, 2.5)), &options, &mut target)?;
+    /// assert_eq!(drawn.shadows, ShadowMode::OnePass);
+    /// // The knot shadows itself: some of what it draws is its material's ambient term only.
+    /// let ambient = target.table().shadowed(0);
+    /// drop(target);
+    /// assert!(tft.0.iter().any(|c| c.into_storage() == ambient));
+    /// # Ok(())
+    /// # }
+    /// ```
     #[cfg(feature = "shadows")]
     pub fn with_shadows(self, map: &'t mut [u16], light: &'t mut LightFrame) -> Self {
         Self {
@@ -614,6 +695,66 @@ impl Pass<'_, '_> {
 /// What a caller puts between a frame's traversal and the shaded raster: a sink of its own
 /// wrapping the raster's (colour by resolution, a tee that records what is drawn). The default
 /// runs the pass straight into the raster.
+///
+/// A layer that counts the splats of each level on their way to a 128 × 160 display:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use pocketsplat_core::raster::DisplayTarget;
+/// use pocketsplat_core::render::{render_marked, Layer, Pass, Phase};
+/// use pocketsplat_core::shade::ShadingTable;
+/// use pocketsplat_core::splat::{ColorSink, SampleSplat, SplatSink, Stats};
+/// use pocketsplat_core::{Model, RenderOptions, Target, View};
+/// # use core::convert::Infallible;
+/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
+/// # struct Panel(usize);
+/// # impl OriginDimensions for Panel { fn size(&self) -> Size { Size::new(128, 160) } }
+/// # impl DrawTarget for Panel {
+/// #     type Color = Rgb565;
+/// #     type Error = Infallible;
+/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
+/// #         self.0 += px.into_iter().count();
+/// #         Ok(())
+/// #     }
+/// # }
+/// /// Splats per level, then on to the raster.
+/// struct PerLevel([u32; 16]);
+/// struct Counting<'a, S>(&'a mut [u32; 16], &'a mut S);
+/// impl<S: ColorSink> SplatSink for Counting<'_, S> {
+///     fn splat(&mut self, s: &SampleSplat) {
+///         self.0[usize::from(s.level) & 15] += 1;
+///         self.1.splat(s);
+///     }
+/// }
+/// impl<S: ColorSink> ColorSink for Counting<'_, S> {
+///     fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
+///         self.0[usize::from(s.level) & 15] += 1;
+///         self.1.splat_colored(s, rgb565);
+///     }
+/// }
+/// impl Layer for PerLevel {
+///     fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+///         pass.run(&mut Counting(&mut self.0, sink))
+///     }
+/// }
+///
+/// let (mut panel, mut depth) = (Panel(0), vec![0u16; 128 * 160]);
+/// let mut table = ShadingTable::<1>::new();
+/// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+/// let mut target = Target::new(DisplayTarget::new(&mut panel, &mut depth).unwrap(), &mut table);
+/// let mut per_level = PerLevel([0; 16]);
+/// let mut phases = Vec::new();
+/// let options = RenderOptions { cutoff_px: 16.0, ..RenderOptions::default() };
+/// let camera = model.orbit(View::new(-30.0, 10.0, 3.0));
+/// render_marked(&model, &camera, &options, &mut target, &mut per_level, |p| phases.push(p))?;
+/// assert_eq!(phases, Phase::ALL);
+/// // At a 16 px cutoff the knot is drawn from cells above its leaves (level 4).
+/// assert!(per_level.0[..4].iter().sum::<u32>() > 0, "{:?}", per_level.0);
+/// drop(target);
+/// assert!(panel.0 > 500);
+/// # Ok(())
+/// # }
+/// ```
 pub trait Layer {
     /// Runs `pass` into `sink`, or into a sink of the layer's in front of it.
     fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
