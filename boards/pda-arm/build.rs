@@ -1,5 +1,9 @@
-//! Linker setup for the bare-metal ARM build, and the baked model the firmware links in.
+//! Linker setup for the bare-metal ARM build, the panel's size, and the baked model the firmware
+//! links in.
 //!
+//! - `POCKETSPLAT_PDA_PANEL=WxH` (default `240x320`) sets the panel the frames are drawn for: the
+//!   lib's `WIDTH` and `HEIGHT`, the size of the firmware's colour and depth buffers (the projection
+//!   follows them).
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
 //!   every other crate of the workspace never see it (docs/ARCHITECTURE.md, Conventions 2).
@@ -17,6 +21,7 @@ use std::path::PathBuf;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    panel();
     if env::var_os("CARGO_FEATURE_MODEL").is_some() {
         model();
     }
@@ -48,6 +53,32 @@ fn main() {
 
 fn manifest_dir() -> PathBuf {
     PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"))
+}
+
+/// The panel's size, a build-time choice: `POCKETSPLAT_PDA_PANEL=WxH` (default `240x320`, the
+/// reference frame), written as the `WIDTH` and `HEIGHT` constants the lib includes. A size the
+/// core's viewport cannot take stops the build with what to write instead.
+fn panel() {
+    const VAR: &str = "POCKETSPLAT_PDA_PANEL";
+    println!("cargo:rerun-if-env-changed={VAR}");
+    let text = env::var(VAR).unwrap_or_else(|_| "240x320".to_owned());
+    let size = text
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
+        .filter(|&(w, h)| (16..=1024).contains(&w) && (16..=1024).contains(&h));
+    let Some((width, height)) = size else {
+        panic!(
+            "{VAR}={text}: want WIDTHxHEIGHT with each side from 16 to 1024 pixels, e.g. 320x240"
+        );
+    };
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join("panel.rs");
+    let src = format!(
+        "/// Panel width, pixels (`{VAR}` at build time; 240 by default).\n\
+         pub const WIDTH: usize = {width};\n\
+         /// Panel height, pixels (`{VAR}` at build time; 320 by default).\n\
+         pub const HEIGHT: usize = {height};\n"
+    );
+    std::fs::write(&out, src).unwrap_or_else(|e| panic!("{}: {e}", out.display()));
 }
 
 /// Resolves `POCKETSPLAT_PDA_MODEL` (relative paths from the workspace root, where the README's

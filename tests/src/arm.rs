@@ -62,18 +62,19 @@ pub const MARKERS: [&str; 5] = [
 ];
 
 /// A cleared frame's rows, on the heap (the firmware's are statics).
-fn rows() -> Box<[[u16; WIDTH]; HEIGHT]> {
-    vec![[0u16; WIDTH]; HEIGHT]
+fn rows<const W: usize, const H: usize>() -> Box<[[u16; W]; H]> {
+    vec![[0u16; W]; H]
         .into_boxed_slice()
         .try_into()
-        .expect("HEIGHT rows")
+        .expect("H rows")
 }
 
 /// The host's side of a comparison: the buffers the firmware keeps in statics, on the heap, and
-/// the very library call the firmware makes to fill them.
-pub struct HostFrames {
-    color: Box<[[u16; WIDTH]; HEIGHT]>,
-    depth: Box<[[u16; WIDTH]; HEIGHT]>,
+/// the very library call the firmware makes to fill them. The default panel's size, or a firmware
+/// built for another (`Firmware::panel`).
+pub struct HostFrames<const W: usize = WIDTH, const H: usize = HEIGHT> {
+    color: Box<[[u16; W]; H]>,
+    depth: Box<[[u16; W]; H]>,
     table: Box<ShadingTable<1>>,
     shadow: Box<[u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE]>,
     light: Box<LightFrame>,
@@ -86,8 +87,15 @@ impl Default for HostFrames {
 }
 
 impl HostFrames {
-    /// Cleared buffers.
+    /// Cleared buffers of the default panel's size.
     pub fn new() -> Self {
+        Self::sized()
+    }
+}
+
+impl<const W: usize, const H: usize> HostFrames<W, H> {
+    /// Cleared buffers of `W` × `H` pixels.
+    pub fn sized() -> Self {
         HostFrames {
             color: rows(),
             depth: rows(),
@@ -101,7 +109,7 @@ impl HostFrames {
     }
 
     /// The buffers, as the firmware's library calls take them.
-    pub fn targets(&mut self) -> Targets<'_> {
+    pub fn targets(&mut self) -> Targets<'_, W, H> {
         Targets {
             color: &mut self.color,
             depth: &mut self.depth,
@@ -154,6 +162,9 @@ pub struct Firmware<'a> {
     pub target: &'a str,
     /// Cargo features of pocketsplat-pda.
     pub features: &'a [&'a str],
+    /// The panel's size, `WxH` for `POCKETSPLAT_PDA_PANEL` (`None`: the default 240 × 320). Another
+    /// size builds in a target dir of its own, so that switching does not rebuild the default.
+    pub panel: Option<&'a str>,
     /// Baked `.tg` or `.qs` file for `POCKETSPLAT_PDA_MODEL` (a `.qs` needs the `qsplat` feature).
     pub model: Option<&'a Path>,
     /// FAT disk image for `POCKETSPLAT_PDA_IMAGE`, which the `stream` feature opens at run time
@@ -167,6 +178,7 @@ impl Firmware<'_> {
         Firmware {
             target: TARGET,
             features,
+            panel: None,
             model: None,
             image: None,
         }
@@ -184,7 +196,8 @@ impl Firmware<'_> {
         if features.is_empty() {
             features.push("default");
         }
-        format!("{}-{}", self.target, features.join("+"))
+        let panel = self.panel.map_or(String::new(), |p| format!("-{p}"));
+        format!("{}-{}{panel}", self.target, features.join("+"))
     }
 
     /// The QEMU machine and CPU for the target: mps2-an386 (Cortex-M4F) for `thumbv7em-*hf`,
@@ -202,7 +215,10 @@ impl Firmware<'_> {
     /// When cargo fails (its stderr is in the error) or the ELF cannot be copied.
     pub fn build(&self) -> Result<PathBuf> {
         let root = workspace_root();
-        let target_dir = target_dir();
+        let target_dir = match self.panel {
+            Some(panel) => target_dir().join(format!("panel-{panel}")),
+            None => target_dir(),
+        };
         let _guard = BUILD
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner());
@@ -218,6 +234,10 @@ impl Firmware<'_> {
             self.target,
             "--release",
         ]);
+        match self.panel {
+            Some(panel) => cmd.env("POCKETSPLAT_PDA_PANEL", panel),
+            None => cmd.env_remove("POCKETSPLAT_PDA_PANEL"),
+        };
         let mut features: Vec<&str> = self.features.to_vec();
         if let Some(model) = self.model {
             features.push("model");
@@ -243,7 +263,7 @@ impl Firmware<'_> {
             String::from_utf8_lossy(&out.stderr)
         );
         let built = target_dir.join(self.target).join("release/pocketsplat-pda");
-        let elf = target_dir
+        let elf = self::target_dir()
             .join("elf")
             .join(format!("pocketsplat-pda-{}.elf", self.name()));
         fs::create_dir_all(elf.parent().expect("a parent"))?;

@@ -41,6 +41,7 @@ fn big_scene_views_on_arm_match_the_host() {
     let counter = Counter::build().unwrap();
     let fw = Firmware {
         target: TARGET,
+        panel: None,
         features: &["scene", "shadows"],
         model: Some(&pack_path),
         image: None,
@@ -228,6 +229,7 @@ dist = 2.2
 
     let fw = Firmware {
         target: TARGET,
+        panel: None,
         features: &["scene", "shadows", "qsplat"],
         model: Some(&pack_path),
         image: None,

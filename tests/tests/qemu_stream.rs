@@ -184,6 +184,7 @@ fn stream_under_qemu(medium: Medium) -> Option<(StreamTotals, usize, Vec<StreamF
 
     let fw = Firmware {
         target: TARGET,
+        panel: None,
         features,
         model: None,
         image: Some(&image),

@@ -60,6 +60,7 @@ fn firmware_matches_host(
     let model = model()?;
     let fw = Firmware {
         target: TARGET,
+        panel: None,
         features,
         model: Some(&model),
         image: None,
@@ -123,6 +124,48 @@ fn qsplat_bunny_views_on_arm_match_the_host() {
     for (r, _) in &frames {
         assert!(r.stats.splats > 0, "{:?} draws nothing", r.spec);
     }
+}
+
+/// The panel's size is a build-time choice (`POCKETSPLAT_PDA_PANEL`): a firmware built for a
+/// landscape 320 × 240 panel draws every view at every cutoff into buffers of that size, and its
+/// frames are the host's frames at that size (the projection follows the buffers).
+#[test]
+fn a_firmware_for_a_landscape_panel_draws_the_hosts_frames_at_that_size() {
+    if !have_qemu() {
+        return;
+    }
+    let Some(model) = bunny() else {
+        return;
+    };
+    let fw = Firmware {
+        target: TARGET,
+        features: &[],
+        panel: Some("320x240"),
+        model: Some(&model),
+        image: None,
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    assert_eq!(run.output.status.code(), Some(0), "{}", run.transcript());
+    let bytes = std::fs::read(&model).unwrap();
+    let host_model = Model::open(&bytes).unwrap();
+    let expected: Vec<FrameSpec> = frame_specs_for(&[Shadows::Off]).collect();
+    let mut host = HostFrames::<320, 240>::sized();
+    let reports = pocketsplat_tests::arm::compare_frames(&run.stdout(), &expected, |spec| {
+        host.render(&host_model, spec)
+    })
+    .unwrap_or_else(|e| panic!("{} ({}): {e:#}", fw.name(), elf.display()));
+    // Not the portrait frames: the same views framed for another image.
+    let mut portrait = HostFrames::new();
+    let differ = reports
+        .iter()
+        .filter(|r| portrait.render(&host_model, r.spec).unwrap().crc != r.crc)
+        .count();
+    assert_eq!(
+        differ,
+        reports.len(),
+        "every landscape frame differs from the portrait one"
+    );
 }
 
 /// With shadows on, every frame still matches (issue 5: "QEMU CRC equality holds with shadows on"),

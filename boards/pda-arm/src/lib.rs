@@ -45,8 +45,9 @@ pub use views::{render_stream_pass, render_stream_view, StreamTargets};
 
 use pocketsplat_core::crc::Crc32;
 
-/// Framebuffer width and height, pixels (the core's, one definition).
-pub use pocketsplat_core::camera::{HEIGHT, WIDTH};
+// The panel's size, a build-time choice (build.rs: `POCKETSPLAT_PDA_PANEL=WxH`, 240x320 by
+// default): `WIDTH` and `HEIGHT`, pixels.
+include!(concat!(env!("OUT_DIR"), "/panel.rs"));
 /// Pixels in a frame.
 pub const PIXELS: usize = WIDTH * HEIGHT;
 /// Size of one RGB565 framebuffer, bytes.

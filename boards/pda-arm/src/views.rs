@@ -91,12 +91,13 @@ pub fn frame_specs_for(modes: &'static [Shadows]) -> impl Iterator<Item = FrameS
 }
 
 /// Where a frame is drawn: colour and depth rows, the shading table and, with shadows, the shadow
-/// map (statics on the device, the heap on the host).
-pub struct Targets<'a> {
+/// map (statics on the device, the heap on the host). The panel's size by default ([`WIDTH`] ×
+/// [`HEIGHT`], a build-time choice); the frame's projection follows whatever size the rows have.
+pub struct Targets<'a, const W: usize = WIDTH, const H: usize = HEIGHT> {
     /// RGB565 rows.
-    pub color: &'a mut [[u16; WIDTH]; HEIGHT],
+    pub color: &'a mut [[u16; W]; H],
     /// Depth rows.
-    pub depth: &'a mut [[u16; WIDTH]; HEIGHT],
+    pub depth: &'a mut [[u16; W]; H],
     /// The shading table, kept between frames (rebuilt only when the view direction changes).
     pub table: &'a mut ShadingTable<1>,
     /// Shadow-map depths, [`SHADOW_MAP_SIZE`]² of them.
@@ -253,10 +254,10 @@ pub fn model_frame_specs(model: &Model<'_>) -> impl Iterator<Item = FrameSpec> {
 ///
 /// # Errors
 /// When the frame cannot be set up ([`RenderError`]), e.g. shadows of a QSplat model.
-pub fn render_standard_view(
+pub fn render_standard_view<const W: usize, const H: usize>(
     model: &Model<'_>,
     spec: FrameSpec,
-    targets: &mut Targets<'_>,
+    targets: &mut Targets<'_, W, H>,
     mark: impl FnMut(Phase),
 ) -> Result<FrameReport, RenderError> {
     let (_, view) = STANDARD_VIEWS[spec.view];
@@ -289,12 +290,12 @@ pub const KERNEL: Kernel = Kernel::Square;
 /// # Errors
 /// When the frame cannot be set up ([`RenderError`]: ρ above 3, degenerate bounds, a cutoff that
 /// is not positive, shadows of a QSplat model or from a build without the `shadows` feature).
-pub fn render_view(
+pub fn render_view<const W: usize, const H: usize>(
     model: &Model<'_>,
     view: View,
     cutoff_px: f32,
     shadows: Shadows,
-    targets: &mut Targets<'_>,
+    targets: &mut Targets<'_, W, H>,
     mark: impl FnMut(Phase),
 ) -> Result<Drawn, RenderError> {
     let camera = model.orbit(view);

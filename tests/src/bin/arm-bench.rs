@@ -562,6 +562,7 @@ fn bench_model(
     let firmware = |features| Firmware {
         target,
         features,
+        panel: None,
         model: Some(&file.path),
         image: None,
     };
@@ -841,6 +842,7 @@ fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) 
         let fw = Firmware {
             target,
             features: &["scene", "shadows"],
+            panel: None,
             model: Some(&path),
             image: None,
         };

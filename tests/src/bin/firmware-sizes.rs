@@ -127,6 +127,7 @@ fn run() -> Result<()> {
         };
         let fw = Firmware {
             target: TARGET,
+            panel: None,
             features: set.features,
             model: model.as_deref(),
             image: image.as_deref(),

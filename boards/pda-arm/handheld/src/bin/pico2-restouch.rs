@@ -20,7 +20,7 @@ use hal::clocks::Clock as _;
 use hal::fugit::RateExtU32;
 use hal::gpio::{FunctionSpi, PinState};
 use panic_probe as _;
-use pocketsplat_core::camera::{HEIGHT, WIDTH};
+use pocketsplat_pda::{HEIGHT, WIDTH};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_handheld::{
     halt, init_panel, run, Buttons, Clock, Memory, Panel, StreamTables, StreamTargets, CACHE_BYTES,
