@@ -3,6 +3,11 @@
 //! Everything that runs on the device: the hierarchical point formats (tri-grids and QSplat),
 //! their integer-only traversal, the raster and the shading tables. `no_std`, no heap.
 //!
+//! **One way in**: [`Model::open`] a file (by its magic), orbit a [`Camera`] about it, and
+//! [`render()`] it into a [`Target`]: any embedded-graphics display with a depth buffer you own
+//! ([`raster::DisplayTarget`]) or the crate's [`raster::Framebuffer`], of any size. The [`render`
+//! module](mod@render) shows it whole; `examples/cortex_m.rs` is a firmware that does it.
+//!
 //! The writers live next to the readers so that each byte layout is defined in one place; they and the
 //! mesh baker sit behind the `bake` feature (std).
 //!

@@ -26,7 +26,7 @@ pub struct SampleSplat {
     pub shadowed: bool,
     /// Draw exactly the pixels whose centres the splat covers, none when it covers none (a
     /// tri-grid cell: the cells of a surface tile its projection); otherwise at least the pixel
-    /// under its centre (a QSplat sphere). [`Framebuffer::splat`] says which pixels.
+    /// under its centre (a QSplat sphere). [`crate::raster::draw_splat`] says which pixels.
     pub exact: bool,
 }
 
