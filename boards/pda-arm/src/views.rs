@@ -71,7 +71,7 @@ impl FrameSpec {
 
 /// The frames the firmware renders of a tri-grid, in order: each standard view, in each mode of
 /// [`SHADOW_MODES`], at each cutoff of [`CUTOFFS_PX`] ([`frame_specs_for`] of [`SHADOW_MODES`]; for
-/// any model, [`Model::frame_specs`]).
+/// any model, [`model_frame_specs`]).
 pub fn frame_specs() -> impl Iterator<Item = FrameSpec> {
     frame_specs_for(SHADOW_MODES)
 }
