@@ -1,0 +1,216 @@
+//! The shadow test and fill per node and per sample (Duguet §5.3): integer only, the hooks the
+//! tri-grid traversal calls ([`ShadowHooks`]): light-space positions by 3 adds, the map tested at
+//! a sample's centre and filled over its footprint.
+#![deny(clippy::float_arithmetic)]
+
+use super::light::LightFrame;
+use super::{ShadowMap, LIGHT_FRAC};
+use crate::fixed::recip;
+use crate::normal::NORMAL_COUNT;
+use crate::tg::traverse::{ShadowHooks, SlotOrder};
+
+/// Light-space position: U, V (Q8 texels), D (Q8 depth); for a point light, homogeneous `Uh`, `Vh`
+/// and `W` (texel = `Uh / W`).
+pub type LightPos = [i32; 3];
+
+impl LightFrame {
+    /// Map position of a light-space position: texel coordinates (Q8) and, for a point light, the
+    /// reciprocal of `W` to scale extents with.
+    #[inline(always)]
+    pub(super) fn texel<const POINT: bool>(p: LightPos) -> (i32, i32, (u32, u32)) {
+        if POINT {
+            let (r, shift) = recip(p[2] as u32);
+            let sh = shift - LIGHT_FRAC;
+            let r64 = i64::from(r);
+            let u = ((i64::from(p[0]) * r64) >> sh) as i32;
+            let v = ((i64::from(p[1]) * r64) >> sh) as i32;
+            (u, v, (r, shift))
+        } else {
+            (p[0], p[1], (0, 0))
+        }
+    }
+
+    /// The 16-bit map depth of light-space depth `d` (`D` or `W`).
+    #[inline(always)]
+    pub(super) fn depth16<const POINT: bool>(&self, d: i32) -> u16 {
+        if POINT {
+            let pd = self.point_depth;
+            let dz = (d - pd.depth_w0).max(0) as u64;
+            ((dz * pd.depth_scale) >> 32).min(65534) as u16
+        } else {
+            (d >> LIGHT_FRAC).clamp(0, 65534) as u16
+        }
+    }
+
+    /// Whether a sample at light-space `p` with attribute `attr` is in shadow in `map`, biased as
+    /// for a cell at level `row - 1` (row 0: level 0; a point light: `row ≥ 1`).
+    #[inline]
+    pub(super) fn in_shadow<const POINT: bool>(
+        &self,
+        map: &ShadowMap<'_>,
+        row: usize,
+        p: LightPos,
+        attr: u16,
+    ) -> bool {
+        let k = self.derived.facing[usize::from(attr) & (NORMAL_COUNT - 1)];
+        if k == 0 {
+            return true;
+        }
+        let bias = if POINT {
+            self.bias_at::<true>(row - 1, p[2], usize::from(k - 1))
+        } else {
+            self.derived.slope[row][usize::from(k)]
+        };
+        let (u, v, _) = Self::texel::<POINT>(p);
+        map.at(u >> LIGHT_FRAC, v >> LIGHT_FRAC) < self.depth16::<POINT>(p[2] - bias)
+    }
+
+    /// Fills the footprint of a cell at `level`, light-space `p`.
+    #[inline]
+    pub(super) fn cast<const POINT: bool>(
+        &self,
+        map: &mut ShadowMap<'_>,
+        level: usize,
+        p: LightPos,
+    ) {
+        let e = self.ext[level];
+        let (u, v, _) = Self::texel::<POINT>(p);
+        let (eu, ev) = if POINT {
+            // Extents over the cell's nearest W (Q8 texels).
+            let (r, shift) = recip((p[2] - e[2]).max(1) as u32);
+            let sh = shift - LIGHT_FRAC;
+            let r64 = i64::from(r);
+            (
+                ((i64::from(e[0]) * r64) >> sh) as i32 + 1,
+                ((i64::from(e[1]) * r64) >> sh) as i32 + 1,
+            )
+        } else {
+            (e[0], e[1])
+        };
+        map.fill(u, v, eu, ev, self.depth16::<POINT>(p[2]));
+    }
+
+    #[inline(always)]
+    pub(super) fn step(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
+        let d = self.disp[level][slot & 31];
+        [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+    }
+}
+
+/// One-pass shadows (directional lights): test and fill as samples are drawn, nearest to the light
+/// first.
+pub struct OnePass<'l, 'm, 'b> {
+    pub(super) light: &'l LightFrame,
+    pub(super) map: &'m mut ShadowMap<'b>,
+}
+
+impl ShadowHooks for OnePass<'_, '_, '_> {
+    type Pos = LightPos;
+    const FILL_CULLED: bool = true;
+    /// Light order only above the stop level: below it nothing fills until the stop-level
+    /// ancestor has been descended ([`OnePass::casts`]), so the order of its descendants cannot
+    /// change what any of them is tested against, and the walk there takes the cheaper slot order.
+    #[inline(always)]
+    fn ordered(&self, level: usize) -> bool {
+        level < self.light.stop_level
+    }
+    #[inline(always)]
+    fn root(&self) -> LightPos {
+        self.light.root
+    }
+    #[inline(always)]
+    fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
+        self.light.step(p, level, slot)
+    }
+    fn order(&self) -> &SlotOrder {
+        &self.light.order
+    }
+    #[inline]
+    fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
+        // The map holds what neighbours drew, with their footprints and centre depths, and with
+        // multi-level rendering a neighbour may be one level coarser: bias as for that level,
+        // which is row `level` of the bias table.
+        let shadowed = self.light.in_shadow::<false>(self.map, level, p, attr);
+        self.casts(level, p);
+        shadowed
+    }
+    /// Fills only at the light's level of detail or coarser. A cell finer than the stop level is
+    /// at most a texel in the map: its stop-level ancestor fills that footprint once, after its
+    /// whole subtree has been tested ([`ShadowHooks::descended`]), as the light pass of two-pass
+    /// shadows fills at that level. Testing before the ancestor fills keeps a cell from shadowing
+    /// itself; cells nearer the light were visited, and filled, before it (Duguet §5.3). On the
+    /// bunny at 1 px this is 0.23 M fills instead of 1.3 M.
+    #[inline]
+    fn casts(&mut self, level: usize, p: LightPos) {
+        if level <= self.light.stop_level {
+            self.light.cast::<false>(self.map, level, p);
+        }
+    }
+    #[inline]
+    fn descended(&mut self, level: usize, p: LightPos) {
+        if level == self.light.stop_level {
+            self.light.cast::<false>(self.map, level, p);
+        }
+    }
+    fn light_stop(&self, level: usize) -> bool {
+        level >= self.light.stop_level
+    }
+}
+
+/// The second pass of two-pass shadows: test only, against a map filled by [`super::fill_shadow_map`].
+/// `POINT`: the light is a point light (perspective map).
+pub struct TwoPass<'l, 'm, 'b, const POINT: bool> {
+    pub(super) light: &'l LightFrame,
+    pub(super) map: &'m ShadowMap<'b>,
+}
+
+impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
+    type Pos = LightPos;
+    const FILL_CULLED: bool = false;
+    #[inline(always)]
+    fn root(&self) -> LightPos {
+        self.light.root
+    }
+    #[inline(always)]
+    fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
+        self.light.step(p, level, slot)
+    }
+    #[inline]
+    fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
+        self.light.in_shadow::<POINT>(self.map, level + 1, p, attr)
+    }
+    #[inline(always)]
+    fn casts(&mut self, _: usize, _: LightPos) {}
+    fn light_stop(&self, level: usize) -> bool {
+        level >= self.light.stop_level
+    }
+}
+
+/// The first pass of two-pass shadows: the whole grid's depth from the light, down to cells of one
+/// texel.
+pub(super) struct Fill<'l, 'm, 'b, const POINT: bool> {
+    pub(super) light: &'l LightFrame,
+    pub(super) map: &'m mut ShadowMap<'b>,
+}
+
+impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {
+    type Pos = LightPos;
+    const FILL_CULLED: bool = true;
+    fn root(&self) -> LightPos {
+        self.light.root
+    }
+    #[inline(always)]
+    fn child(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
+        self.light.step(p, level, slot)
+    }
+    fn drawn(&mut self, _: usize, _: LightPos, _: u16) -> bool {
+        false
+    }
+    #[inline]
+    fn casts(&mut self, level: usize, p: LightPos) {
+        self.light.cast::<POINT>(self.map, level, p);
+    }
+    fn light_stop(&self, level: usize) -> bool {
+        level >= self.light.stop_level
+    }
+}
