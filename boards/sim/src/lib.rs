@@ -18,5 +18,4 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod stream;
-#[cfg(feature = "window")]
-pub mod window;
+pub mod view;

@@ -124,7 +124,7 @@ enum Command {
     },
     /// Show a point file in a window: orbit, pan and zoom with the mouse and keys, refined to
     /// 1 px whenever nothing moves. Needs a display; without one, use `render`.
-    #[command(after_help = cmd::view::KEYS_HELP)]
+    #[command(after_help = pocketsplat_sim::view::KEYS_HELP)]
     View {
         /// A `.tg`, `.qs` or `.pack` file.
         input: PathBuf,
@@ -423,7 +423,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 color_by_level,
                 ..Default::default()
             };
-            let opts = cmd::view::ViewOptions {
+            let opts = pocketsplat_sim::view::ViewOptions {
                 settings,
                 scale,
                 refine: !no_refine,
@@ -431,7 +431,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 frames,
                 screenshot,
             };
-            cmd::view::run(&input, &opts)
+            pocketsplat_sim::view::run(&input, &opts)
         }
         Some(Command::Report {
             which: ReportKind::Stability { out, group },

@@ -3,4 +3,3 @@
 pub mod bake;
 pub mod info;
 pub mod render;
-pub mod view;

@@ -14,9 +14,9 @@ use serde_json::json;
 
 use super::bake::{bake_scene, BakeOverrides};
 use super::render::{ram_json, render_pack, scene_table, stats_json, PackSettings, SceneTable};
-use crate::cmd::view::Scene as ViewScene;
 use crate::fsutil::write_atomic;
 use crate::render::{FrameBuffers, FrameReport, Settings};
+use crate::view::Scene as ViewScene;
 use crate::{image, scene};
 
 /// Whether `path` names a scene file (by its `.toml` extension).
@@ -482,7 +482,7 @@ impl ViewScene for PackView<'_> {
     }
 }
 
-/// Opens a pack's bytes for `pocketsplat view` (the call `cmd::view::open_scene` makes for the
+/// Opens a pack's bytes for `pocketsplat view` (the call `view::open_scene` makes for the
 /// magic `PSPK`).
 ///
 /// # Errors

@@ -163,8 +163,8 @@ fn hud_style(color: Rgb565) -> MonoTextStyle<'static, Rgb565> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::view::{Action, ViewOptions};
     use crate::render::FrameBuffers;
+    use crate::view::{Action, ViewOptions};
 
     #[test]
     fn hud_draws_inside_the_frame_and_not_when_off() {

@@ -1,6 +1,6 @@
 //! `pocketsplat view INPUT`: a point file in a window that follows the mouse and keys.
 //!
-//! The window itself (minifb) is in `crate::window`, behind the `window` feature. What needs no
+//! The window itself (minifb) is in `window`, behind the `window` feature. What needs no
 //! display lives here, so it is tested without one: the [`Scene`] a format plugs in as (this
 //! module), the camera and light driven by [`Action`]s (`state`: [`ViewState`]), progressive
 //! refinement (`refine`: [`Refiner`]) and the HUD (`hud`: [`draw_hud`]).
@@ -8,6 +8,8 @@
 mod hud;
 mod refine;
 mod state;
+#[cfg(feature = "window")]
+pub mod window;
 
 use std::path::{Path, PathBuf};
 
@@ -225,7 +227,7 @@ pub fn run(input: &Path, opts: &ViewOptions) -> Result<()> {
 
 #[cfg(feature = "window")]
 fn show(title: &str, input: &Path, scene: &mut dyn Scene, opts: &ViewOptions) -> Result<()> {
-    let viewer = crate::window::Viewer::open_scaled(title, opts.scale).map_err(|e| {
+    let viewer = window::Viewer::open_scaled(title, opts.scale).map_err(|e| {
         let why = match std::env::var_os("DISPLAY") {
             None => "DISPLAY is not set".to_string(),
             Some(d) => format!(
