@@ -92,7 +92,7 @@ pub fn run() -> Result<()> {
     let bytes = demo_tg()?;
     let grid = TriGrid::open(&bytes, Verify::Full)?;
     #[cfg(feature = "window")]
-    match crate::view::window::Viewer::open("pocketsplat demo") {
+    match crate::view::Viewer::open("pocketsplat demo") {
         Ok(viewer) => return viewer.run(&grid, Settings::default()),
         Err(e) => eprintln!("no window ({e}); writing a PNG instead"),
     }

@@ -1,5 +1,5 @@
-//! The scene side of `pocketsplat bake`, `render`, `info` and `view`: what `main.rs` and the viewer
-//! call when the input is a scene file (`.toml`) or a pack (magic `PSPK`).
+//! The scene side of `pocketsplat bake`, `render` and `info`: what `main.rs` calls when the input is
+//! a scene file (`.toml`) or a pack (magic `PSPK`).
 
 use std::path::Path;
 use std::time::Instant;
@@ -7,16 +7,15 @@ use std::time::Instant;
 use anyhow::{anyhow, Result};
 use pocketsplat_core::camera::View;
 use pocketsplat_core::format::FileFormat;
-use pocketsplat_core::raster::{Framebuffer, Kernel};
+use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::scene::{ram_budget, Pack, Scene, ShadowMode};
 use pocketsplat_core::tg::Verify;
 use serde_json::json;
 
 use super::bake::{bake_scene, BakeOverrides};
-use super::render::{ram_json, render_pack, scene_table, stats_json, PackSettings, SceneTable};
+use super::render::{ram_json, render_pack, stats_json, PackSettings};
 use crate::fsutil::write_atomic;
-use crate::render::{FrameBuffers, FrameReport, Settings};
-use crate::view::Scene as ViewScene;
+use crate::render::FrameBuffers;
 use crate::{image, scene};
 
 /// Whether `path` names a scene file (by its `.toml` extension).
@@ -433,62 +432,6 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
         ram.scene
     );
     Ok(())
-}
-
-/// A pack as a scene of `pocketsplat view`: the viewer's settings (view, light, cutoff, kernel,
-/// shadows) drive the frame; pans move the orbit centre in units of the scene sphere's radius.
-pub struct PackView<'a> {
-    scene: Scene<'a>,
-    table: Box<SceneTable>,
-}
-
-impl<'a> PackView<'a> {
-    /// Wraps an opened scene.
-    pub fn new(scene: Scene<'a>) -> Self {
-        Self {
-            scene,
-            table: scene_table(),
-        }
-    }
-}
-
-impl ViewScene for PackView<'_> {
-    fn label(&self) -> String {
-        format!("scene, {} objects", self.scene.len())
-    }
-
-    fn render(
-        &mut self,
-        settings: &Settings,
-        pan: [f64; 3],
-        out: &mut FrameBuffers,
-        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
-    ) -> Result<FrameReport> {
-        let s = PackSettings::from_settings(settings)?;
-        let cam = s.camera(&self.scene, pan);
-        let levels = settings
-            .color_by_level
-            .then(|| crate::levels::Levels::of_scene(&self.scene));
-        let frame = super::render::render_pack_from(
-            &self.scene,
-            &cam,
-            &s.options(&self.scene),
-            levels.as_ref(),
-            &mut self.table,
-            out,
-            |fb, f| overlay(fb, &f.report()),
-        )?;
-        Ok(frame.report())
-    }
-}
-
-/// Opens a pack's bytes for `pocketsplat view` (the call `view::open_scene` makes for the
-/// magic `PSPK`).
-///
-/// # Errors
-/// When the pack or an object's file is invalid; the message names `path`.
-pub fn open_view_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn ViewScene + 'a>> {
-    Ok(Box::new(PackView::new(open_scene(path, bytes)?)))
 }
 
 /// What the bake left out of an object, as `info --json` lists it.
