@@ -432,7 +432,7 @@ pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
     let (name, bytes) = match format {
         Format::TriGrid => {
             let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
-            let (_, bytes) = pocketsplat_sim::cmd::bake::bake_mesh(
+            let (_, bytes) = pocketsplat_sim::bake::bake_mesh(
                 &mesh,
                 BakeOptions { rho: 3, depth: 6 },
                 12,
@@ -441,8 +441,7 @@ pub fn baked_bunny_as(format: Format) -> Result<Option<PathBuf>> {
             ("bunny-d6.tg", bytes)
         }
         Format::QSplat => {
-            let report =
-                pocketsplat_sim::cmd::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
+            let report = pocketsplat_sim::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
             ("bunny.qs", report.baked.bytes)
         }
     };

@@ -9,8 +9,8 @@ use pocketsplat_core::camera::{Vec3, View};
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::bvh::Bvh;
-use pocketsplat_sim::cmd::render::shadow_light;
 use pocketsplat_sim::metrics::shadow_disagreement;
+use pocketsplat_sim::reference::shadow_light;
 use pocketsplat_sim::reference::{render_reference_shadowed, ShadowRays};
 use pocketsplat_sim::render::{
     render_tg_classified, render_tg_frame, FrameBuffers, Settings, ShadowMode,

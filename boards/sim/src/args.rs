@@ -1,6 +1,6 @@
 //! Command-line numbers, parsed once, here: sizes and counts with `K`, `M`, `G` suffixes, whole
-//! numbers and floats, each checked for overflow and against its option's range, and the
-//! `--limits NAME=SIZE` list.
+//! numbers and floats, each checked for overflow and against its option's range, views and light
+//! positions, and the `--limits NAME=SIZE` list.
 //!
 //! The raw layer ([`parse_size`], [`parse_float`], [`parse_numbers`]) is pure and never panics (it is
 //! fuzzed: `fuzz/fuzz_targets/cli_numbers.rs`); the `clap` value parsers ([`size`], [`int`],
@@ -20,6 +20,7 @@
 //! ```
 
 use anyhow::{bail, Result};
+use pocketsplat_core::camera::View;
 use pocketsplat_core::shade::ShadowMode;
 
 /// Why a number on the command line was refused.
@@ -114,6 +115,33 @@ pub fn parse_numbers<const N: usize>(what: &str, text: &str) -> Result<[f64; N]>
         *o = parse_float(p).map_err(|e| anyhow::anyhow!("{what} {text:?}: {p:?} is {e}"))?;
     }
     Ok(out)
+}
+
+/// Parses a view: a standard view's name or `AZ,EL,DIST`.
+///
+/// # Errors
+/// When it is neither.
+pub fn parse_view(text: &str) -> Result<View> {
+    if let Some(v) = pocketsplat_core::camera::standard_view(text) {
+        return Ok(v);
+    }
+    let [az, el, dist] = parse_numbers::<3>("--view", text)?;
+    if dist <= 0.0 {
+        bail!("--view {text:?}: distance must be positive");
+    }
+    Ok(View::new(az, el, dist))
+}
+
+/// Parses a point light's position `X,Y,Z` in bounding-sphere radii from the sphere's centre.
+///
+/// # Errors
+/// When it is not three numbers, or it is the centre itself.
+pub fn parse_light_pos(text: &str) -> Result<[f64; 3]> {
+    let p = parse_numbers::<3>("--light-pos", text)?;
+    if p == [0.0; 3] {
+        bail!("--light-pos {text:?}: the light cannot be at the model's centre");
+    }
+    Ok(p)
 }
 
 /// A `clap` value parser for a size or count from `lo` to `hi` (inclusive), suffixes allowed.

@@ -78,8 +78,7 @@ fn normalize(a: [f64; 3]) -> [f64; 3] {
 /// Never for the built-in model; bake errors are passed on.
 pub fn demo_tg() -> Result<Vec<u8>> {
     let mesh = trefoil(600, 32, 0.45);
-    let (_, bytes) =
-        crate::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 5 }, 12, true)?;
+    let (_, bytes) = crate::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 5 }, 12, true)?;
     Ok(bytes)
 }
 

@@ -3,11 +3,13 @@
 //! lives in `pocketsplat-core`.
 
 pub mod args;
+pub mod bake;
 pub mod bvh;
 pub mod cmd;
 pub mod demo;
 pub mod fsutil;
 pub mod image;
+pub mod info;
 pub mod levels;
 pub mod limits;
 pub mod metrics;

@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::scene::ShadowMode;
 use pocketsplat_sim::args::{self, Ends};
-use pocketsplat_sim::{cmd, report, scene};
+use pocketsplat_sim::{bake, cmd, info, report, scene};
 
 #[derive(Parser)]
 #[command(
@@ -300,11 +300,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             block_size,
             format,
             force,
-        }) => cmd::bake::run(&mesh, &out, rho, depth, block_size, &format, force),
+        }) => bake::run(&mesh, &out, rho, depth, block_size, &format, force),
         Some(Command::Info { file, json }) if scene::cmd::is_pack(&file) => {
             scene::cmd::info(&file, json)
         }
-        Some(Command::Info { file, json }) => cmd::info::run(&file, json),
+        Some(Command::Info { file, json }) => info::run(&file, json),
         Some(Command::Render {
             input,
             out,
@@ -362,7 +362,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }) => {
             let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
-                view: cmd::render::parse_view(&view)?,
+                view: args::parse_view(&view)?,
                 fov_deg: fov,
                 cutoff_px: cutoff,
                 kernel: match kernel {
@@ -376,7 +376,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let settings = pocketsplat_sim::render::Settings {
                 light_pos: light_pos
                     .as_deref()
-                    .map(cmd::render::parse_light_pos)
+                    .map(args::parse_light_pos)
                     .transpose()?,
                 color_by_level,
                 ..settings
@@ -411,7 +411,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }) => {
             let [az, el] = args::parse_numbers::<2>("--light", &light)?;
             let settings = pocketsplat_sim::render::Settings {
-                view: cmd::render::parse_view(&view)?,
+                view: args::parse_view(&view)?,
                 fov_deg: fov,
                 cutoff_px: cutoff,
                 kernel: match kernel {

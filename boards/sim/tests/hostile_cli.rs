@@ -419,10 +419,9 @@ fn streamed_hostile_files_fail_cleanly_and_write_no_png() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
-    let base =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
-            .unwrap()
-            .1;
+    let base = pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
+        .unwrap()
+        .1;
     let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
     let put = |b: &mut [u8], at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
     let dir_at =

@@ -351,7 +351,7 @@ fn a_bake_too_deep_is_refused_before_it_starts() {
 #[test]
 fn the_estimate_is_near_what_the_bake_makes() {
     use pocketsplat_core::bake::BakeOptions;
-    use pocketsplat_sim::cmd::bake::{bake_mesh, estimate_bake};
+    use pocketsplat_sim::bake::{bake_mesh, estimate_bake};
     let mesh = pocketsplat_sim::demo::trefoil(96, 12, 0.45);
     for (rho, depth) in [(3, 5), (2, 8), (4, 4)] {
         let opts = BakeOptions { rho, depth };

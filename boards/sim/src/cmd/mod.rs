@@ -1,5 +1,3 @@
 //! The `pocketsplat` subcommands.
 
-pub mod bake;
-pub mod info;
 pub mod render;

@@ -6,58 +6,16 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{bail, Result};
-use pocketsplat_core::camera::View;
+use anyhow::Result;
 use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde_json::json;
 
 use crate::bvh::Bvh;
-use crate::reference::{ShadowLight, ShadowRays};
-use crate::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
+use crate::reference::{shadow_light, ShadowRays};
+use crate::render::{render_tg_frame, FrameBuffers, Settings};
 use crate::{image, ply, reference};
-
-pub use crate::args::parse_numbers;
-
-/// Parses a view: a standard view's name or `AZ,EL,DIST`.
-///
-/// # Errors
-/// When it is neither.
-pub fn parse_view(text: &str) -> Result<View> {
-    if let Some(v) = pocketsplat_core::camera::standard_view(text) {
-        return Ok(v);
-    }
-    let [az, el, dist] = parse_numbers::<3>("--view", text)?;
-    if dist <= 0.0 {
-        bail!("--view {text:?}: distance must be positive");
-    }
-    Ok(View::new(az, el, dist))
-}
-
-/// Parses a point light's position `X,Y,Z` in bounding-sphere radii from the sphere's centre.
-///
-/// # Errors
-/// When it is not three numbers, or it is the centre itself.
-pub fn parse_light_pos(text: &str) -> Result<[f64; 3]> {
-    let p = parse_numbers::<3>("--light-pos", text)?;
-    if p == [0.0; 3] {
-        bail!("--light-pos {text:?}: the light cannot be at the model's centre");
-    }
-    Ok(p)
-}
-
-/// Where the reference renderer's shadow rays go for these settings and a model with these bounds:
-/// `None` without shadows.
-pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<ShadowLight> {
-    if settings.shadows == ShadowMode::Off {
-        return None;
-    }
-    Some(match settings.light_position(bounds) {
-        Some(at) => ShadowLight::Point(at),
-        None => ShadowLight::Directional(settings.light_dir()),
-    })
-}
 
 /// Is this path a `.tg` file (by its magic), rather than a mesh?
 fn is_tg(path: &Path) -> Result<bool> {

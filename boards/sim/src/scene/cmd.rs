@@ -140,7 +140,7 @@ pub fn parse_pack_view(pack: &Pack<'_>, text: &str) -> Result<View> {
             .path_view(t)
             .ok_or_else(|| anyhow!("--view {text:?}: the pack has no camera path"));
     }
-    crate::cmd::render::parse_view(text).map_err(|e| {
+    crate::args::parse_view(text).map_err(|e| {
         let names: Vec<&str> = (0..pack.view_count())
             .filter_map(|v| pack.view(v).map(|(n, _)| n))
             .collect();
@@ -170,7 +170,7 @@ pub fn render(input: &Path, out: &Path, args: &RenderArgs) -> Result<()> {
     settings.fov_deg = args.fov;
     settings.shadows = args.shadows;
     if let Some(l) = &args.light {
-        let [az, el] = crate::cmd::render::parse_numbers::<2>("--light", l)?;
+        let [az, el] = crate::args::parse_numbers::<2>("--light", l)?;
         settings.light_az_el = Some((az, el));
     }
     settings.color_by_level = args.color_by_level;
@@ -275,7 +275,7 @@ pub fn info(path: &Path, as_json: bool) -> Result<()> {
             continue;
         };
         let h = g.header();
-        let info = crate::cmd::info::tg_info(g);
+        let info = crate::info::tg_info(g);
         objects.push(json!({
             "name": r.name,
             "format": match h.rho { 2 => "octree", _ => "tri-grid" },

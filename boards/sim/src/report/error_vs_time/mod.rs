@@ -41,8 +41,8 @@ use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::shade::{rgb565_to_rgb888, ShadingTable};
 use pocketsplat_core::tg::{TriGrid, Verify};
 
+use crate::bake::bake_mesh;
 use crate::bvh::Bvh;
-use crate::cmd::bake::bake_mesh;
 use crate::fsutil::write_atomic;
 use crate::metrics::{coverage_mismatch, psnr_rgb8};
 use crate::qsplat::render_qs_with;
