@@ -807,7 +807,7 @@ mod tests {
             &url,
             &out,
             &crate::render::Settings::default(),
-            &crate::stream::StreamOptions::default(),
+            &crate::stream::run::StreamOptions::default(),
             false,
         )
         .unwrap_err();

@@ -162,7 +162,7 @@ pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn Scene + 'a
             return Ok(Box::new(TgScene::new(grid)));
         }
         Some(FileFormat::Pack) => {
-            let scene = crate::scene::cmd::open_scene(path, bytes)?;
+            let scene = crate::input::open_pack(path, bytes)?;
             return Ok(Box::new(PackScene::new(scene)));
         }
         Some(FileFormat::QSplat) => {

@@ -1,3 +1,0 @@
-//! The `pocketsplat` subcommands.
-
-pub mod render;
