@@ -19,6 +19,7 @@ pub mod reference;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod shapes;
 pub mod snapshot;
 pub mod stream;
 pub mod view;
