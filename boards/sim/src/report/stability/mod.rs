@@ -31,7 +31,7 @@ mod shot;
 
 use std::time::Instant;
 
-pub use baked::{world_sphere, Baked};
+pub use baked::{cell_centres, child_centroids, world_sphere, Baked};
 pub use frame::{shoot, Measured};
 pub use meshes::{blob, cluster_with_outliers, flat_plane, needle, single_triangle, wire};
 pub use outcome::{CaseResult, Outcome, BOUNDS_SLACK_PX, MAX_ERROR_PX};
