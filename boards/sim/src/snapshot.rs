@@ -63,6 +63,15 @@ pub fn render_file(input: &Path, out: &Path, settings: &Settings) -> Result<Snap
     Ok(Snapshot { stats, summary })
 }
 
+/// Writes the frame to `out` as a PNG, with the key of colour by resolution when its splats are
+/// tinted by level.
+fn write_frame(out: &Path, fb: &mut FrameBuffers, color_by_level: bool) -> Result<()> {
+    if color_by_level {
+        crate::levels::legend_in_corner(&mut fb.framebuffer());
+    }
+    image::write_rgb565_png(out, fb.pixels())
+}
+
 fn render_qs(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json::Value> {
     let bytes = crate::qsplat::read_qs(input)?;
     let file = pocketsplat_core::qs::QSplat::open(&bytes)
@@ -70,10 +79,7 @@ fn render_qs(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json
     let mut fb = FrameBuffers::new();
     let r = crate::qsplat::render_qs_frame(&file, settings, &mut fb)
         .map_err(|e| anyhow!("{}: {e:#}", input.display()))?;
-    if settings.color_by_level {
-        crate::levels::legend_in_corner(&mut fb.framebuffer());
-    }
-    image::write_rgb565_png(out, fb.pixels())?;
+    write_frame(out, &mut fb, settings.color_by_level)?;
     let s = r.stats;
     Ok(json!({
         "input": input.display().to_string(), "renderer": "qsplat",
@@ -90,10 +96,7 @@ fn render_tg(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json
         TriGrid::open(&bytes, Verify::Full).map_err(|e| anyhow!("{}: {e}", input.display()))?;
     let mut fb = FrameBuffers::new();
     let r = render_tg_frame(&grid, settings, &mut fb)?;
-    if settings.color_by_level {
-        crate::levels::legend_in_corner(&mut fb.framebuffer());
-    }
-    image::write_rgb565_png(out, fb.pixels())?;
+    write_frame(out, &mut fb, settings.color_by_level)?;
     let s = r.stats;
     Ok(json!({
         "input": input.display().to_string(), "renderer": "tg",
@@ -175,10 +178,7 @@ pub fn render_pack_file(input: &Path, out: &Path, args: &PackArgs) -> Result<Sna
     settings.color_by_level = args.color_by_level;
     let mut fb = FrameBuffers::new();
     let frame = render_pack(&scene, &settings, &mut fb)?;
-    if args.color_by_level {
-        crate::levels::legend_in_corner(&mut fb.framebuffer());
-    }
-    image::write_rgb565_png(out, fb.pixels())?;
+    write_frame(out, &mut fb, args.color_by_level)?;
     let mut v = stats_json(&frame.stats.total);
     let o = v.as_object_mut().expect("an object");
     o.insert("input".into(), json!(input.display().to_string()));
