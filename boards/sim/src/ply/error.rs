@@ -86,7 +86,7 @@ pub enum PlyError {
         count: usize,
     },
     /// A face refers to a negative vertex index. (Indices past the last vertex are reported as
-    /// [`MeshError::IndexOutOfRange`] by [`TriMesh::validate`].)
+    /// [`MeshError::IndexOutOfRange`] by [`TriMesh::validate`](pocketsplat_core::bake::TriMesh::validate).)
     #[error("{file}: face {face} refers to vertex {index}, which is negative")]
     NegativeIndex {
         /// The file.
@@ -116,7 +116,7 @@ pub enum PlyError {
         /// What is available, in words (`only 12 bytes follow it`).
         available: String,
     },
-    /// The mesh was read but fails [`TriMesh::validate`]: empty, a non-finite vertex, a face index
+    /// The mesh was read but fails [`TriMesh::validate`](pocketsplat_core::bake::TriMesh::validate): empty, a non-finite vertex, a face index
     /// out of range, or no triangle with any area.
     #[error("{file}: {error}")]
     Mesh {

@@ -83,7 +83,7 @@ impl Method for TgMethod<'_> {
     }
 }
 
-/// The brute-force baseline over a grid's leaves ([`brute`]).
+/// The brute-force baseline over a grid's leaves ([`brute`](super::brute)).
 pub struct BruteMethod {
     cloud: LeafCloud,
     detail: String,

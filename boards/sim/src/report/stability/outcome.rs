@@ -48,7 +48,7 @@ impl Outcome {
 /// One row of the report.
 #[derive(Clone, Debug)]
 pub struct CaseResult {
-    /// Group name (one of [`GROUPS`]).
+    /// Group name (one of [`GROUPS`](super::GROUPS)).
     pub group: &'static str,
     /// Case name, unique within the group.
     pub name: String,
