@@ -6,7 +6,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use pocketsplat_sim::args::{
-    block_size, float, format_size, int, parse_float, parse_numbers, parse_size, size, Ends,
+    block_size, float, format_size, int, light_az_el, light_pos, parse_float, parse_numbers,
+    parse_size, size, Ends,
 };
 use pocketsplat_sim::limits::Limits;
 
@@ -21,6 +22,12 @@ fuzz_target!(|data: &[u8]| {
     }
     let _ = parse_numbers::<2>("--light", text);
     let _ = parse_numbers::<3>("--view", text);
+    if let Ok((az, el)) = light_az_el(text) {
+        assert!(az.is_finite() && el.is_finite());
+    }
+    if let Ok(p) = light_pos(text) {
+        assert!(p != [0.0; 3] && p.iter().all(|c| c.is_finite()));
+    }
     if let Ok(n) = size::<usize>(4 << 10, 1 << 30)(text) {
         assert!((4 << 10..=1 << 30).contains(&n));
     }

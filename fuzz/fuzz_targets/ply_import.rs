@@ -6,7 +6,7 @@
 use libfuzzer_sys::fuzz_target;
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_sim::cmd::bake::bake_mesh;
+use pocketsplat_sim::bake::bake_mesh;
 use pocketsplat_sim::ply::load_mesh_from_reader;
 
 fuzz_target!(|data: &[u8]| {

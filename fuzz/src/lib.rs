@@ -57,7 +57,7 @@ pub fn base_files_at(log2: u8) -> &'static [Vec<u8>] {
         .into_iter()
         .map(|(materials, colors, rho, depth)| {
             let mesh = trefoil(materials, colors);
-            let (_, bytes) = pocketsplat_sim::cmd::bake::bake_mesh(
+            let (_, bytes) = pocketsplat_sim::bake::bake_mesh(
                 &mesh,
                 BakeOptions { rho, depth },
                 log2,

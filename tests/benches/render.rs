@@ -16,7 +16,7 @@ fn bake(rho: u8, depth: u8) -> Vec<u8> {
     let path = pocketsplat_tests::model("bun_zipper.ply.gz")
         .expect("the bunny is needed for this benchmark");
     let mesh = pocketsplat_sim::ply::load_mesh(&path).expect("bunny loads");
-    pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho, depth }, 12, false)
+    pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho, depth }, 12, false)
         .expect("bake")
         .1
 }

@@ -453,7 +453,7 @@ pub fn baked_bunny_as(format: FileFormat) -> Result<Option<PathBuf>> {
     let (name, bytes) = match format {
         FileFormat::TriGrid => {
             let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
-            let (_, bytes) = pocketsplat_sim::cmd::bake::bake_mesh(
+            let (_, bytes) = pocketsplat_sim::bake::bake_mesh(
                 &mesh,
                 BakeOptions { rho: 3, depth: 6 },
                 12,
@@ -462,8 +462,7 @@ pub fn baked_bunny_as(format: FileFormat) -> Result<Option<PathBuf>> {
             ("bunny-d6.tg", bytes)
         }
         FileFormat::QSplat => {
-            let report =
-                pocketsplat_sim::cmd::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
+            let report = pocketsplat_sim::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;
             ("bunny.qs", report.baked.bytes)
         }
         FileFormat::Pack => bail!("the bunny is a model, not a scene pack"),

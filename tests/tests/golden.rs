@@ -14,9 +14,9 @@ use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::shade::rgb565_to_rgb888;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::bvh::Bvh;
-use pocketsplat_sim::cmd::render::shadow_light;
 use pocketsplat_sim::image::{read_rgb8_frame, write_rgb8_png};
 use pocketsplat_sim::metrics::{compare_frames, psnr_rgb8, shadow_disagreement};
+use pocketsplat_sim::reference::shadow_light;
 use pocketsplat_sim::reference::{render_reference, render_reference_shadowed, ShadowRays};
 use pocketsplat_sim::render::{render_tg_classified, FrameBuffers, Settings, ShadowMode};
 use pocketsplat_tests::{model, workspace_root};
@@ -55,7 +55,7 @@ fn bunny_standard_views_match_golden_images_and_the_reference() {
     };
     let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
     let (_, bytes) =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
+        pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
             .unwrap();
     let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
     let bvh = Bvh::new(&mesh);

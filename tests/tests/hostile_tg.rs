@@ -19,7 +19,7 @@ use pocketsplat_core::tg::{
     render_tg, TgError, TgFrame, TriGrid, Verify, CONE_SHIFT, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
     FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAX_DEPTH,
 };
-use pocketsplat_sim::cmd::bake::bake_mesh;
+use pocketsplat_sim::bake::bake_mesh;
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMode};
 
 /// 512-byte blocks: the most blocks, so the most boundaries, per file.

@@ -8,60 +8,8 @@ use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::{SampleSplat, SplatSink};
 use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
+use pocketsplat_sim::report::stability::{cell_centres, child_centroids};
 use pocketsplat_tests::model;
-
-/// f64 centre of every cell, per level in file order (a breadth-first walk of the masks).
-fn cell_centres(tg: &TriGrid<'_>) -> Vec<Vec<[f64; 3]>> {
-    let h = tg.header();
-    let rho = usize::from(h.rho);
-    let side = h.side64;
-    let mut levels = vec![vec![h.origin64.map(|o| o + 0.5 * side)]];
-    let mut cell = side;
-    for l in 0..h.depth {
-        let parent = cell;
-        cell /= rho as f64;
-        let mut next = Vec::with_capacity(tg.level(l + 1).count as usize);
-        for (i, c) in levels[usize::from(l)].iter().enumerate() {
-            let mask = tg.mask(l, i as u32);
-            for s in 0..rho * rho * rho {
-                if mask >> s & 1 == 1 {
-                    let ijk = [s % rho, (s / rho) % rho, s / (rho * rho)];
-                    next.push(std::array::from_fn(|k| {
-                        c[k] + ((ijk[k] as f64 + 0.5) / rho as f64 - 0.5) * parent
-                    }));
-                }
-            }
-        }
-        levels.push(next);
-    }
-    levels
-}
-
-/// f64 centroid of every cell's children's centres, per level in file order (`None` for a leaf):
-/// where the walk may draw a cell instead of its centre (Duguet §4.1: the surface in the cell).
-fn child_centroids(tg: &TriGrid<'_>, centres: &[Vec<[f64; 3]>]) -> Vec<Vec<Option<[f64; 3]>>> {
-    let h = tg.header();
-    let mut out = Vec::new();
-    for l in 0..=h.depth {
-        let n = centres[usize::from(l)].len();
-        if l == h.depth {
-            out.push(vec![None; n]);
-            continue;
-        }
-        let mut first = 0usize;
-        let mut level = Vec::with_capacity(n);
-        for i in 0..n {
-            let k = (tg.mask(l, i as u32)).count_ones() as usize;
-            let kids = &centres[usize::from(l) + 1][first..first + k];
-            first += k;
-            level.push((k > 0).then(|| {
-                std::array::from_fn(|a| kids.iter().map(|c| c[a]).sum::<f64>() / k as f64)
-            }));
-        }
-        out.push(level);
-    }
-    out
-}
 
 struct Check<'a> {
     centres: &'a [Vec<[f64; 3]>],
@@ -107,7 +55,7 @@ fn rng(seed: &mut u64) -> f64 {
 }
 
 fn run(tg: &TriGrid<'_>, cameras: usize) -> (f64, u64) {
-    let centres = cell_centres(tg);
+    let (centres, _) = cell_centres(tg);
     let centroids = child_centroids(tg, &centres);
     let sphere = Sphere::from_bounds(tg.header().bounds);
     let mut seed = 0x2545_F491_4F6C_DD1Du64;

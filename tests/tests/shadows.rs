@@ -5,16 +5,17 @@
 //! different levels, so cells of different sizes) and under a point light.
 
 use pocketsplat_core::bake::{bake_grid, BakeOptions, TriMesh};
-use pocketsplat_core::camera::{Vec3, View};
+use pocketsplat_core::camera::View;
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::bvh::Bvh;
-use pocketsplat_sim::cmd::render::shadow_light;
 use pocketsplat_sim::metrics::shadow_disagreement;
+use pocketsplat_sim::reference::shadow_light;
 use pocketsplat_sim::reference::{render_reference_shadowed, ShadowRays};
 use pocketsplat_sim::render::{
     render_tg_classified, render_tg_frame, FrameBuffers, Settings, ShadowMode,
 };
+use pocketsplat_sim::shapes::{boxmesh, merge, uv_sphere};
 
 /// A unit ground square at y = 0 and, when `floating`, a 0.3-wide square at y = 0.5 above its centre.
 fn scene(floating: bool) -> TriMesh {
@@ -156,78 +157,18 @@ fn an_oblique_light_shadows_the_ground_beside_the_square_and_both_algorithms_agr
     assert!(left(&fb1) > d1 * 9 / 10, "shadow on the wrong side");
 }
 
-/// An axis-aligned box with outward faces and no shared vertices between faces.
-fn boxmesh(lo: Vec3, hi: Vec3) -> TriMesh {
-    let mut mesh = TriMesh::default();
-    for axis in 0..3 {
-        for positive in [false, true] {
-            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-            let c = if positive { hi[axis] } else { lo[axis] };
-            let corner = |i: usize, j: usize| {
-                let mut p = [0.0; 3];
-                p[axis] = c;
-                p[a] = if i == 0 { lo[a] } else { hi[a] };
-                p[b] = if j == 0 { lo[b] } else { hi[b] };
-                p
-            };
-            let n = mesh.positions.len() as u32;
-            mesh.positions
-                .extend([corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)]);
-            if positive {
-                mesh.triangles
-                    .extend([[n, n + 1, n + 2], [n, n + 2, n + 3]]);
-            } else {
-                mesh.triangles
-                    .extend([[n, n + 2, n + 1], [n, n + 3, n + 2]]);
-            }
-        }
-    }
-    mesh
-}
-
-/// A UV sphere.
-fn uv_sphere(center: Vec3, r: f64, rings: u32, segs: u32) -> TriMesh {
-    let mut mesh = TriMesh::default();
-    for j in 0..=rings {
-        let th = std::f64::consts::PI * f64::from(j) / f64::from(rings);
-        for i in 0..segs {
-            let ph = 2.0 * std::f64::consts::PI * f64::from(i) / f64::from(segs);
-            mesh.positions.push([
-                center[0] + r * th.sin() * ph.sin(),
-                center[1] + r * th.cos(),
-                center[2] + r * th.sin() * ph.cos(),
-            ]);
-        }
-    }
-    let v = |i: u32, j: u32| j * segs + i % segs;
-    for j in 0..rings {
-        for i in 0..segs {
-            mesh.triangles.push([v(i, j), v(i, j + 1), v(i + 1, j + 1)]);
-            mesh.triangles.push([v(i, j), v(i + 1, j + 1), v(i + 1, j)]);
-        }
-    }
-    mesh
-}
-
-/// The unit ground square at y = 0 with `object` floating over it.
-fn over_ground(object: &TriMesh) -> TriMesh {
-    let mut mesh = scene(false);
-    let base = mesh.positions.len() as u32;
-    mesh.positions.extend(&object.positions);
-    mesh.triangles
-        .extend(object.triangles.iter().map(|t| t.map(|i| i + base)));
-    mesh
-}
-
 /// A box floating over the ground.
 fn box_scene() -> TriMesh {
-    over_ground(&boxmesh([-0.35, 0.25, -0.3], [0.3, 0.6, 0.35]))
+    merge(
+        scene(false),
+        &boxmesh([-0.35, 0.25, -0.3], [0.3, 0.6, 0.35]),
+    )
 }
 
 /// A sphere floating over the ground: no face is edge-on to a light along an axis (a box's sides
 /// would be, and `n·l = 0` has no robust lit/unlit answer).
 fn sphere_scene() -> TriMesh {
-    over_ground(&uv_sphere([0.1, 0.5, -0.1], 0.3, 32, 64))
+    merge(scene(false), &uv_sphere([0.1, 0.5, -0.1], 0.3, 32, 64))
 }
 
 /// The lit/shadowed disagreement of a frame with the reference's ray-cast shadows (same light,

@@ -30,7 +30,7 @@ fn bunny() -> Option<&'static (Vec<u8>, Vec<u8>)> {
         .get_or_init(|| {
             let path = model("bun_zipper.ply.gz")?;
             let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
-            let (grid, big) = pocketsplat_sim::cmd::bake::bake_mesh(
+            let (grid, big) = pocketsplat_sim::bake::bake_mesh(
                 &mesh,
                 BakeOptions { rho: 3, depth: 6 },
                 12,
@@ -486,7 +486,7 @@ mod hostile {
     /// The demo's trefoil as a tri-grid with cones, depth 4, blocks of `2^log2` bytes.
     pub fn trefoil(log2: u8) -> Vec<u8> {
         let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, log2, false)
+        pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, log2, false)
             .unwrap()
             .1
     }
@@ -629,7 +629,7 @@ fn a_root_mask_short_of_the_level_below_is_malformed() {
     for depth in [1u8, 4] {
         let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
         let base =
-            pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth }, 12, false)
+            pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth }, 12, false)
                 .unwrap()
                 .1;
         TriGrid::open(&base, Verify::Full).unwrap();

@@ -150,7 +150,7 @@ fn the_dragon_streams_from_nginx_and_converges_to_the_local_file_frame() {
     };
     let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
     let (_, file) =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
+        pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
             .unwrap();
     let root = tempfile::tempdir().unwrap();
     let local = root.path().join("dragon.tg");

@@ -24,7 +24,7 @@ fn the_bunny_streams_from_a_fat_image_through_embedded_sdmmc() {
     };
     let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
     let (_, file) =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
+        pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 6 }, 12, false)
             .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let image = make_image(dir.path(), &file, "BUNNY.TG");

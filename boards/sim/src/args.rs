@@ -1,10 +1,11 @@
 //! Command-line numbers, parsed once, here: sizes and counts with `K`, `M`, `G` suffixes, whole
-//! numbers and floats, each checked for overflow and against its option's range, and the
-//! `--limits NAME=SIZE` list.
+//! numbers and floats, each checked for overflow and against its option's range, views and light
+//! positions, and the `--limits NAME=SIZE` list.
 //!
-//! The raw layer ([`parse_size`], [`parse_float`], [`parse_numbers`]) is pure and never panics (it is
-//! fuzzed: `fuzz/fuzz_targets/cli_numbers.rs`); the `clap` value parsers ([`size`], [`int`],
-//! [`float`], [`block_size`]) add the range, so that clap's message names the option:
+//! The raw layer ([`parse_size`], [`parse_float`], [`numbers`]) is pure and never panics (it is
+//! fuzzed: `fuzz/fuzz_targets/cli_numbers.rs`); the value parsers ([`size`], [`int`], [`float`],
+//! [`block_size`], [`light_az_el`], [`light_pos`]; plain functions, which the command line hands
+//! to `clap`) add the range, so that the message names the option:
 //!
 //! ```text
 //! error: invalid value '100000M' for '--cache <CACHE>': must be from 4K to 1G
@@ -19,8 +20,9 @@
 //! assert!(parse_size("18446744073709551615K").is_err());
 //! ```
 
-use anyhow::{bail, Result};
-use pocketsplat_core::shade::ShadowMode;
+use anyhow::{anyhow, bail, Result};
+use pocketsplat_core::camera::View;
+use pocketsplat_core::scene::Pack;
 
 /// Why a number on the command line was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
@@ -100,20 +102,91 @@ pub fn parse_float(text: &str) -> Result<f64, NumberError> {
     }
 }
 
-/// Parses `A,B` or `A,B,C` finite numbers (views and lights); `what` names the option.
+/// Parses `N` comma-separated finite numbers (`A,B` or `A,B,C`: views and lights); the error says
+/// why, without naming the option.
+///
+/// # Errors
+/// When the text is not `N` comma-separated finite numbers.
+pub fn numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!("expected {N} comma-separated numbers"));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = parse_float(p).map_err(|e| format!("{p:?} is {e}"))?;
+    }
+    Ok(out)
+}
+
+/// [`numbers`], the error naming the option (`what`) and the text.
 ///
 /// # Errors
 /// When the text is not `N` comma-separated finite numbers.
 pub fn parse_numbers<const N: usize>(what: &str, text: &str) -> Result<[f64; N]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != N {
-        bail!("{what} {text:?}: expected {N} comma-separated numbers");
+    numbers(text).map_err(|why| anyhow!("{what} {text:?}: {why}"))
+}
+
+/// Parses a view: a standard view's name or `AZ,EL,DIST`.
+///
+/// # Errors
+/// When it is neither.
+pub fn parse_view(text: &str) -> Result<View> {
+    if let Some(v) = pocketsplat_core::camera::standard_view(text) {
+        return Ok(v);
     }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = parse_float(p).map_err(|e| anyhow::anyhow!("{what} {text:?}: {p:?} is {e}"))?;
+    let [az, el, dist] = parse_numbers::<3>("--view", text)?;
+    if dist <= 0.0 {
+        bail!("--view {text:?}: distance must be positive");
     }
-    Ok(out)
+    Ok(View::new(az, el, dist))
+}
+
+/// A light direction `AZ,EL`: azimuth and elevation in degrees (a value parser for `--light`).
+///
+/// # Errors
+/// When it is not two finite numbers.
+pub fn light_az_el(text: &str) -> Result<(f64, f64), String> {
+    let [az, el] = numbers::<2>(text)?;
+    Ok((az, el))
+}
+
+/// A point light's position `X,Y,Z` in bounding-sphere radii from the sphere's centre (a value
+/// parser for `--light-pos`).
+///
+/// # Errors
+/// When it is not three finite numbers, or it is the centre itself.
+pub fn light_pos(text: &str) -> Result<[f64; 3], String> {
+    let p = numbers::<3>(text)?;
+    if p == [0.0; 3] {
+        return Err("the light cannot be at the model's centre".into());
+    }
+    Ok(p)
+}
+
+/// A view of the pack by name, a standard view, `AZ,EL,DIST`, or `path@T` (the camera path at `T`
+/// seconds).
+///
+/// # Errors
+/// When it is none of these.
+pub fn parse_pack_view(pack: &Pack<'_>, text: &str) -> Result<View> {
+    if let Some(v) = pack.view_named(text) {
+        return Ok(v);
+    }
+    if let Some(t) = text.strip_prefix("path@") {
+        let t: f64 = t
+            .parse()
+            .map_err(|e| anyhow!("--view {text:?}: {t:?} is not a time in seconds ({e})"))?;
+        return pack
+            .path_view(t)
+            .ok_or_else(|| anyhow!("--view {text:?}: the pack has no camera path"));
+    }
+    parse_view(text).map_err(|e| {
+        let names: Vec<&str> = (0..pack.view_count())
+            .filter_map(|v| pack.view(v).map(|(n, _)| n))
+            .collect();
+        anyhow!("{e} (the pack's views: {})", names.join(", "))
+    })
 }
 
 /// A `clap` value parser for a size or count from `lo` to `hi` (inclusive), suffixes allowed.
@@ -223,13 +296,6 @@ impl FromF64 for f32 {
     }
 }
 
-/// `--shadows`: `off`, `one-pass` or `two-pass` ([`ShadowMode::name`]), listed in `--help`.
-pub fn shadow_mode() -> impl clap::builder::TypedValueParser<Value = ShadowMode> {
-    use clap::builder::TypedValueParser as _;
-    clap::builder::PossibleValuesParser::new(ShadowMode::ALL.map(ShadowMode::name))
-        .map(|name| ShadowMode::from_name(&name).unwrap_or_default())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -292,5 +358,17 @@ mod tests {
         for bad in ["1", "1,2,3", "nan,1", "1e999,0", "a,b", ""] {
             assert!(parse_numbers::<2>("--light", bad).is_err(), "{bad:?}");
         }
+        assert_eq!(
+            parse_numbers::<2>("--light", "1").unwrap_err().to_string(),
+            "--light \"1\": expected 2 comma-separated numbers"
+        );
+        assert_eq!(light_az_el("-40,60"), Ok((-40.0, 60.0)));
+        assert_eq!(
+            light_az_el("1").unwrap_err(),
+            "expected 2 comma-separated numbers"
+        );
+        assert_eq!(light_pos("0, 2, -1"), Ok([0.0, 2.0, -1.0]));
+        assert!(light_pos("0,0,0").unwrap_err().contains("centre"));
+        assert!(light_pos("1,nan,0").unwrap_err().contains("not finite"));
     }
 }

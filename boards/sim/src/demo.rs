@@ -1,15 +1,12 @@
 //! The built-in demo model (`pocketsplat` with no arguments): a trefoil-knot tube generated here, so
-//! the first run needs no download. Baked at depth 5 in memory and shown in a window, or written as a
-//! PNG when there is no display.
+//! the first run needs no download, baked at depth 5 in memory ([`demo_tg`]). The command line
+//! shows it in a window, or writes a PNG when there is no display. Tests, reports and fuzz targets
+//! use the knot as a model that needs no file.
 
 use std::f64::consts::TAU;
-use std::path::Path;
 
 use anyhow::Result;
 use pocketsplat_core::bake::{BakeOptions, TriMesh};
-use pocketsplat_core::tg::{TriGrid, Verify};
-
-use crate::render::{render_tg_frame, FrameBuffers, Settings};
 
 /// A trefoil knot as a closed tube: `segments` rings of `sides` vertices.
 pub fn trefoil(segments: usize, sides: usize, tube: f64) -> TriMesh {
@@ -78,8 +75,7 @@ fn normalize(a: [f64; 3]) -> [f64; 3] {
 /// Never for the built-in model; bake errors are passed on.
 pub fn demo_tg() -> Result<Vec<u8>> {
     let mesh = trefoil(600, 32, 0.45);
-    let (_, bytes) =
-        crate::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 5 }, 12, true)?;
+    let (_, bytes) = crate::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 5 }, 12, true)?;
     Ok(bytes)
 }
 
@@ -91,34 +87,6 @@ pub fn demo_tg() -> Result<Vec<u8>> {
 /// Never for the built-in model; bake errors are passed on.
 pub fn example_tg() -> Result<Vec<u8>> {
     let mesh = trefoil(300, 16, 0.45);
-    let (_, bytes) =
-        crate::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)?;
+    let (_, bytes) = crate::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)?;
     Ok(bytes)
-}
-
-/// Runs the demo: a window when there is a display, else a PNG in the current folder.
-///
-/// # Errors
-/// When the PNG cannot be written.
-pub fn run() -> Result<()> {
-    eprintln!("pocketsplat demo: baking a procedural trefoil knot (tri-grid, depth 5)…");
-    let bytes = demo_tg()?;
-    let grid = TriGrid::open(&bytes, Verify::Full)?;
-    #[cfg(feature = "window")]
-    match crate::window::Viewer::open("pocketsplat demo") {
-        Ok(viewer) => return viewer.run(&grid, Settings::default()),
-        Err(e) => eprintln!("no window ({e}); writing a PNG instead"),
-    }
-    let path = Path::new("pocketsplat-demo.png");
-    let mut fb = FrameBuffers::new();
-    let report = render_tg_frame(&grid, &Settings::default(), &mut fb)?;
-    crate::image::write_rgb565_png(path, fb.pixels())?;
-    eprintln!(
-        "wrote {} ({} splats, {} nodes, {:.1} ms)",
-        path.display(),
-        report.stats.splats,
-        report.stats.nodes_visited,
-        report.time.as_secs_f64() * 1e3
-    );
-    Ok(())
 }

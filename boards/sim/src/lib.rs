@@ -3,11 +3,13 @@
 //! lives in `pocketsplat-core`.
 
 pub mod args;
+pub mod bake;
 pub mod bvh;
-pub mod cmd;
 pub mod demo;
 pub mod fsutil;
 pub mod image;
+pub mod info;
+pub mod input;
 pub mod levels;
 pub mod limits;
 pub mod metrics;
@@ -17,6 +19,7 @@ pub mod reference;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod shapes;
+pub mod snapshot;
 pub mod stream;
-#[cfg(feature = "window")]
-pub mod window;
+pub mod view;

@@ -20,6 +20,7 @@
 //!   point light; a blocked sample is shaded with its material's ambient term only, as the device
 //!   shades a shadowed splat. The ray starts on the triangle, moved off its plane by 10⁻⁷ bounding
 //!   radii towards the light's side, so a surface never shadows itself through rounding.
+//!   [`shadow_light`] places that light where the integer renderer's [`Settings`] put theirs.
 //!
 //! Each pixel is also classified lit or unlit ([`RefImage::shadowed`]): unlit when the interpolated
 //! normal faces away from the light (`n·l ≤ 0`, an attached shadow) or, when rays are cast, the ray
@@ -53,6 +54,7 @@ use pocketsplat_core::shade::{self, Material, DEFAULT_MATERIAL};
 use rayon::prelude::*;
 
 use crate::bvh::Bvh;
+use crate::render::{Settings, ShadowMode};
 
 /// Rows per raster band (the unit of parallel work).
 const BAND_ROWS: usize = 8;
@@ -553,4 +555,16 @@ fn blocked(p: &Prim, w: [f64; 3], s: &Shading<'_>, rays: &ShadowRays<'_>) -> boo
         ShadowLight::Point(at) => (camera::sub(at, origin), 1.0),
     };
     rays.bvh.occluded(origin, dir, 0.0, t_max)
+}
+
+/// Where the reference renderer's shadow rays go for these settings and a model with these bounds:
+/// `None` without shadows.
+pub fn shadow_light(settings: &Settings, bounds: [[f32; 3]; 2]) -> Option<ShadowLight> {
+    if settings.shadows == ShadowMode::Off {
+        return None;
+    }
+    Some(match settings.light_position(bounds) {
+        Some(at) => ShadowLight::Point(at),
+        None => ShadowLight::Directional(settings.light_dir()),
+    })
 }

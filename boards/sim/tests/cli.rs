@@ -2,19 +2,8 @@
 //! no partial output on failure, and the JSON fields other tools rely on.
 
 mod common;
-use common::files_in;
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("pocketsplat runs")
-}
+use common::{files_in, pocketsplat};
+use std::process::Output;
 
 /// A small closed mesh (an octahedron) as ASCII PLY, with an optional replacement line.
 fn octahedron_ply(bad_vertex: Option<&str>) -> String {

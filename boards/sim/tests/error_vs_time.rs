@@ -3,22 +3,13 @@
 //! curves, and no output at all when the input is bad.
 
 mod common;
-use common::{model, models_dir};
+use common::{model, models_dir, pocketsplat};
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::{Command, Output};
 
 use pocketsplat_sim::image::decode_rgb8_png;
 use pocketsplat_sim::report::error_vs_time::CSV_HEADER;
-
-fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("pocketsplat runs")
-}
 
 /// A CSV line split on commas outside double quotes.
 fn fields(line: &str) -> Vec<String> {
@@ -297,8 +288,7 @@ fn quick_sweep_of_the_big_scene_with_arm_counts() {
     let run = |extra: &[&str], out: &str| {
         let mut args = vec!["report", "error-vs-time", scene, "-o", out, "--quick"];
         args.extend_from_slice(extra);
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_pocketsplat"));
-        cmd.args(&args).current_dir(dir.path());
+        let mut cmd = common::command(&args, dir.path());
         if std::env::var_os("POCKETSPLAT_MODELS").is_none() {
             cmd.env("POCKETSPLAT_MODELS", models_dir());
         }

@@ -5,48 +5,9 @@
 //! leave no output or temporary file behind; valid extremes must bake, read back and render.
 
 mod common;
-use common::files_in;
-use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use common::{fails, succeeds};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
-
-fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .expect("pocketsplat runs")
-}
-
-/// Runs `args` and checks: failure, `needles` all in the message, no panic, no new file.
-fn fails(dir: &Path, args: &[&str], needles: &[&str]) {
-    let before = files_in(dir);
-    let out = pocketsplat(args, dir);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{args:?} should fail: {err}");
-    assert!(
-        !err.contains("panicked")
-            && !err.contains("RUST_BACKTRACE")
-            && !err.contains("stack backtrace"),
-        "{args:?} panicked: {err}"
-    );
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: {n:?} not in {err:?}");
-    }
-    assert_eq!(files_in(dir), before, "{args:?} left a file behind");
-}
-
-/// Runs `args` and checks success without a panic message.
-fn succeeds(dir: &Path, args: &[&str]) -> Output {
-    let out = pocketsplat(args, dir);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{args:?}: {err}");
-    out
-}
 
 /// An ASCII PLY from vertex and face lines.
 fn ply(vertices: &[&str], faces: &[&str]) -> String {
@@ -395,9 +356,7 @@ fn a_closed_stdout_is_not_a_crash() {
         // `pocketsplat info oct.tg | head -0`: the reader is gone before anything is written.
         let (reader, writer) = std::io::pipe().unwrap();
         drop(reader);
-        let out = Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-            .args(args)
-            .current_dir(d)
+        let out = common::command(args, d)
             .stdout(Stdio::from(writer))
             .stderr(Stdio::piped())
             .output()
@@ -419,10 +378,9 @@ fn streamed_hostile_files_fail_cleanly_and_write_no_png() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
-    let base =
-        pocketsplat_sim::cmd::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
-            .unwrap()
-            .1;
+    let base = pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
+        .unwrap()
+        .1;
     let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
     let put = |b: &mut [u8], at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
     let dir_at =

@@ -5,10 +5,9 @@
 //! corrupt gzip trailer, devices and FIFOs, a bake far too deep, numbers that overflow.
 
 mod common;
-use common::files_in;
 use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use flate2::write::GzEncoder;
@@ -17,42 +16,28 @@ use flate2::Compression;
 /// Every command here must end within this (the bound is 60 s on a loaded 2-core box).
 const BOUND: Duration = Duration::from_secs(30);
 
-fn pocketsplat(args: &[&str], cwd: &Path) -> (Output, Duration) {
-    let t = Instant::now();
-    let out = Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .env_remove("POCKETSPLAT_MODELS")
-        .output()
-        .expect("pocketsplat runs");
-    (out, t.elapsed())
+/// [`common::command`] without `$POCKETSPLAT_MODELS`.
+fn pocketsplat(args: &[&str], cwd: &Path) -> Command {
+    let mut c = common::command(args, cwd);
+    c.env_remove("POCKETSPLAT_MODELS");
+    c
 }
 
 /// Runs `args`: it must fail within [`BOUND`], without a panic, with every needle in its message,
 /// leaving no new file.
 fn fails(dir: &Path, args: &[&str], needles: &[&str]) -> String {
-    let before = files_in(dir);
-    let (out, took) = pocketsplat(args, dir);
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "{args:?} should fail: {err}");
-    assert!(took < BOUND, "{args:?} took {took:?}");
-    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: {n:?} not in {err:?}");
-    }
-    assert_eq!(files_in(dir), before, "{args:?} left a file behind");
+    let t = Instant::now();
+    let err = common::fails_with(&mut pocketsplat(args, dir), dir, args, needles);
+    assert!(t.elapsed() < BOUND, "{args:?} took {:?}", t.elapsed());
     err
 }
 
-/// Runs `args`: it must succeed within [`BOUND`].
+/// Runs `args`: it must succeed within [`BOUND`]; returns its message.
 fn succeeds(dir: &Path, args: &[&str]) -> String {
-    let (out, took) = pocketsplat(args, dir);
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(out.status.success(), "{args:?}: {err}");
-    assert!(took < BOUND, "{args:?} took {took:?}");
-    err
+    let t = Instant::now();
+    let out = common::succeeds_with(&mut pocketsplat(args, dir), args);
+    assert!(t.elapsed() < BOUND, "{args:?} took {:?}", t.elapsed());
+    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 /// Gzips `header` followed by `chunk` repeated `times` (fast: these are bombs, not archives).
@@ -351,7 +336,7 @@ fn a_bake_too_deep_is_refused_before_it_starts() {
 #[test]
 fn the_estimate_is_near_what_the_bake_makes() {
     use pocketsplat_core::bake::BakeOptions;
-    use pocketsplat_sim::cmd::bake::{bake_mesh, estimate_bake};
+    use pocketsplat_sim::bake::{bake_mesh, estimate_bake};
     let mesh = pocketsplat_sim::demo::trefoil(96, 12, 0.45);
     for (rho, depth) in [(3, 5), (2, 8), (4, 4)] {
         let opts = BakeOptions { rho, depth };

@@ -3,8 +3,10 @@
 //! over it.
 #![cfg(feature = "window")]
 
+mod common;
+use common::pocketsplat;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::sync::OnceLock;
 
 use pocketsplat_sim::image::{read_rgb8_frame, read_rgb8_png};
@@ -17,16 +19,6 @@ fn trefoil_tg(dir: &Path) -> PathBuf {
     let path = dir.join("trefoil.tg");
     std::fs::write(&path, bytes).unwrap();
     path
-}
-
-fn pocketsplat(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pocketsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("pocketsplat runs")
 }
 
 fn under_ci() -> bool {

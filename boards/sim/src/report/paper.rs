@@ -15,8 +15,8 @@ use pocketsplat_core::qs::write::{bake_qs, QsBakeOptions};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
-use crate::cmd::bake::bake_mesh;
-use crate::cmd::info::tg_info;
+use crate::bake::bake_mesh;
+use crate::info::tg_info;
 use crate::ply;
 
 /// Default block size of the report's bakes (the `bake` command's default).

@@ -18,10 +18,10 @@ use pocketsplat_core::shade::rgb565_to_rgb888;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
+use crate::bake::bake_mesh;
 use crate::bvh::Bvh;
-use crate::cmd::bake::bake_mesh;
-use crate::cmd::render::shadow_light;
 use crate::metrics::{psnr_rgb8, shadow_disagreement};
+use crate::reference::shadow_light;
 use crate::reference::{render_reference_shadowed, ShadowRays};
 use crate::render::{render_tg_classified, render_tg_frame, FrameBuffers, Settings, ShadowMode};
 use crate::report::views::median_time;

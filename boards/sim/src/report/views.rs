@@ -14,7 +14,7 @@ use pocketsplat_core::shade::rgb565_to_rgb888;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
-use crate::cmd::bake::bake_mesh;
+use crate::bake::bake_mesh;
 use crate::metrics::{coverage_mismatch, psnr_rgb8};
 use crate::reference::render_reference;
 use crate::render::{render_tg_frame, FrameBuffers, Settings};

@@ -467,7 +467,7 @@ pub fn bake_loaded(
         let at = |e: anyhow::Error| {
             anyhow::anyhow!("{}: object {:?}: {e}", scene.path.display(), o.name)
         };
-        let e = crate::cmd::bake::estimate_bake(mesh, BakeOptions { rho, depth }).map_err(at)?;
+        let e = crate::bake::estimate_bake(mesh, BakeOptions { rho, depth }).map_err(at)?;
         if !overrides.force {
             e.check(limit, depth).map_err(at)?;
         }
@@ -504,8 +504,7 @@ pub fn bake_loaded(
         let (data, asked, kept, savings, samples) = match (&l.mesh, &l.tg) {
             (Some(mesh), _) => {
                 let asked = asked_depth(o);
-                let bar =
-                    long(i).then(|| crate::cmd::bake::progress_bar(&format!(" {:?}", o.name)));
+                let bar = long(i).then(|| crate::bake::progress_bar(&format!(" {:?}", o.name)));
                 let cb = |done: u64, total: u64| {
                     if let Some(bar) = &bar {
                         bar.set_length(total);

@@ -63,7 +63,6 @@
 //! about +Z, applied roll, then pitch, then yaw (`R = yaw · pitch · roll`).
 
 pub mod bake;
-pub mod cmd;
 pub mod ground;
 pub mod render;
 pub mod tree;

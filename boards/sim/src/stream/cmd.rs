@@ -7,8 +7,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use serde_json::json;
 
-use super::run::stream_render_with;
-use super::{stream_render, FileSource, HttpSource, StreamOptions, StreamOutcome};
+use super::file::FileSource;
+use super::http::HttpSource;
+use super::run::{stream_render, stream_render_with, StreamOptions, StreamOutcome};
 use crate::image;
 use crate::render::{FrameBuffers, Settings};
 

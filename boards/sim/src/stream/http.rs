@@ -768,7 +768,7 @@ mod tests {
     fn render_stream_stops_at_a_server_that_stops_serving_ranges() {
         use std::sync::atomic::{AtomicU32, Ordering};
         let mesh = crate::demo::trefoil(48, 6, 0.45);
-        let (_, file) = crate::cmd::bake::bake_mesh(
+        let (_, file) = crate::bake::bake_mesh(
             &mesh,
             pocketsplat_core::bake::BakeOptions { rho: 3, depth: 3 },
             9,
@@ -807,7 +807,7 @@ mod tests {
             &url,
             &out,
             &crate::render::Settings::default(),
-            &crate::stream::StreamOptions::default(),
+            &crate::stream::run::StreamOptions::default(),
             false,
         )
         .unwrap_err();

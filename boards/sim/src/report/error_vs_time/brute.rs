@@ -430,7 +430,7 @@ mod tests {
     use pocketsplat_core::tg::Verify;
 
     use super::*;
-    use crate::cmd::bake::bake_mesh;
+    use crate::bake::bake_mesh;
     use crate::metrics::{coverage_mismatch, psnr_rgb8};
     use crate::render::render_tg_frame;
     use pocketsplat_core::shade::rgb565_to_rgb888;

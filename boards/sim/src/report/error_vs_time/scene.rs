@@ -16,7 +16,7 @@ use pocketsplat_core::shade::Material;
 use pocketsplat_core::tg::Verify;
 
 use super::brute::SceneCloud;
-use super::{FrameConfig, Method, RefShadows, Reference, Subject};
+use super::sweep::{FrameConfig, Method, RefShadows, Reference, Subject};
 use crate::bvh::Bvh;
 use crate::reference::{render_reference_shadowed, ShadowLight, ShadowRays};
 use crate::render::{FrameBuffers, FrameReport};

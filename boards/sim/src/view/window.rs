@@ -1,6 +1,6 @@
 //! The desktop window (minifb, `window` feature): a [`Scene`] in a 240×320 window scaled ×2,
 //! driven by the mouse and keys. The bindings are listed in [`KEYS_HELP`]; the state they drive,
-//! the refinement and the HUD are in [`crate::cmd::view`], which needs no display.
+//! the refinement and the HUD are its sibling modules in [`crate::view`], which need no display.
 
 use std::time::Instant;
 
@@ -9,9 +9,12 @@ use minifb::{Key, KeyRepeat, MouseButton, MouseMode, Scale, Window, WindowOption
 use pocketsplat_core::shade::rgb565_to_rgb888;
 use pocketsplat_core::tg::TriGrid;
 
+use super::hud::{draw_hud, HudInfo};
+use super::options::ViewOptions;
 #[cfg(doc)]
-use crate::cmd::view::KEYS_HELP;
-use crate::cmd::view::{draw_hud, Action, Change, HudInfo, Scene, TgScene, ViewOptions, ViewState};
+use super::options::KEYS_HELP;
+use super::scene::{Scene, TgScene};
+use super::state::{Action, Change, ViewState};
 use crate::image::write_rgb565_png;
 use crate::render::{FrameBuffers, FrameReport, Settings, HEIGHT, WIDTH};
 

@@ -1,5 +1,6 @@
-//! `pocketsplat bake MESH -o OUT.tg`: mesh → ρ-grid file, with a progress bar; with
-//! `--format qsplat`, mesh → QSplat bounding-sphere tree (`.qs`).
+//! Baking a mesh file into a point file in memory: mesh → ρ-grid (`.tg`), with a progress bar, or
+//! mesh → QSplat bounding-sphere tree (`.qs`), and the estimate of what a bake will need before it
+//! starts. `pocketsplat bake` writes what these return; reports, scenes and tests bake through them.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -10,8 +11,38 @@ use pocketsplat_core::bake::{bake_grid, BakeOptions, BakedGrid, TriMesh};
 use pocketsplat_core::qs::write::{bake_qs, BakedQs, QsBakeOptions};
 use pocketsplat_core::tg::write::write_tg;
 
-use crate::fsutil::write_atomic;
-use crate::{limits, ply};
+use crate::ply;
+
+/// The point formats a mesh bakes into.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BakeFormat {
+    /// A ρ-grid, `.tg` (`core/src/tg/FORMAT.md`).
+    #[default]
+    TriGrid,
+    /// A QSplat bounding-sphere tree, `.qs` (`core/src/qs/FORMAT.md`).
+    QSplat,
+}
+
+impl BakeFormat {
+    /// Every format, in the order `--format` lists them.
+    pub const ALL: [BakeFormat; 2] = [BakeFormat::TriGrid, BakeFormat::QSplat];
+
+    /// The name `--format` takes: `tg` or `qsplat`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BakeFormat::TriGrid => "tg",
+            BakeFormat::QSplat => "qsplat",
+        }
+    }
+
+    /// The format called `name` ([`BakeFormat::name`], or `qs` for QSplat).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "qs" => Some(BakeFormat::QSplat),
+            _ => Self::ALL.into_iter().find(|f| f.name() == name),
+        }
+    }
+}
 
 /// What a bake is expected to produce and to need, estimated before it starts.
 ///
@@ -270,72 +301,16 @@ pub fn bake_qs_file(mesh_path: &Path, opts: &QsBakeOptions) -> Result<QsBakeRepo
     })
 }
 
-fn run_qsplat(mesh: &Path, out: &Path) -> Result<()> {
-    let report = bake_qs_file(mesh, &QsBakeOptions::default())?;
-    write_atomic(out, &report.baked.bytes)?;
-    let s = report.baked.stats;
-    eprintln!(
-        "{}: QSplat: {} leaves, {} interior nodes, depth {}, {} bytes ({:.2} per leaf, pointers {:.1} %{}); loaded in {:.2} s, baked in {:.2} s",
-        out.display(),
-        s.leaves,
-        s.interior,
-        s.depth,
-        s.file_bytes,
-        s.bytes_per_leaf(),
-        100.0 * s.pointer_share(),
-        if report.baked.color { ", colour" } else { "" },
-        report.load.as_secs_f64(),
-        report.bake.as_secs_f64()
-    );
-    Ok(())
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// The `bake` command.
-///
-/// # Errors
-/// Bad arguments, mesh import or bake errors; nothing is written then.
-pub fn run(
-    mesh: &Path,
-    out: &Path,
-    rho: u8,
-    depth: u8,
-    block_size: u32,
-    format: &str,
-    force: bool,
-) -> Result<()> {
-    match format {
-        "tg" => {}
-        "qsplat" | "qs" => return run_qsplat(mesh, out),
-        _ => bail!("format {format:?} is not supported (supported: tg, qsplat)"),
+    #[test]
+    fn format_names_round_trip() {
+        for f in BakeFormat::ALL {
+            assert_eq!(BakeFormat::from_name(f.name()), Some(f));
+        }
+        assert_eq!(BakeFormat::from_name("qs"), Some(BakeFormat::QSplat));
+        assert_eq!(BakeFormat::from_name("zip"), None);
     }
-    if !(2..=5).contains(&rho) {
-        bail!("--rho {rho}: must be 2, 3, 4 or 5");
-    }
-    if depth > pocketsplat_core::tg::MAX_DEPTH {
-        bail!(
-            "--depth {depth}: at most {}",
-            pocketsplat_core::tg::MAX_DEPTH
-        );
-    }
-    if !block_size.is_power_of_two() || !(512..=65536).contains(&block_size) {
-        bail!("--block-size {block_size}: must be a power of two from 512 to 65536");
-    }
-    let block_log2 = block_size.trailing_zeros() as u8;
-    let limit = if force {
-        u64::MAX
-    } else {
-        limits::current().bake
-    };
-    let report = bake_file_within(mesh, BakeOptions { rho, depth }, block_log2, true, limit)?;
-    write_atomic(out, &report.bytes)?;
-    let leaves = report.grid.levels.last().map_or(0, |l| l.attrs.len());
-    let total: usize = report.grid.levels.iter().map(|l| l.attrs.len()).sum();
-    eprintln!(
-        "{}: rho {rho}, depth {depth}: {total} samples ({leaves} leaves), {} bytes; loaded in {:.2} s, baked in {:.2} s",
-        out.display(),
-        report.bytes.len(),
-        report.load.as_secs_f64(),
-        report.bake.as_secs_f64()
-    );
-    Ok(())
 }

@@ -8,7 +8,7 @@ use embedded_graphics::text::{Baseline, Text};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::splat::Stats;
 
-use super::state::ViewState;
+use super::state::{HudMode, ViewState};
 use crate::render::{FrameReport, ShadowMode, HEIGHT};
 
 /// The HUD's help lines (FONT_6X10: at most 40 characters across 240 pixels).
@@ -17,29 +17,6 @@ const HUD_HELP: [&str; 3] = [
     "wheel/+- zoom IJKL light []cutoff V lvl",
     "C kernel O shadow P refine R home H hud",
 ];
-
-/// What the HUD shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum HudMode {
-    /// Statistics and the help lines.
-    #[default]
-    Full,
-    /// Statistics only.
-    Stats,
-    /// Nothing.
-    Off,
-}
-
-impl HudMode {
-    /// The next mode of the `H` key.
-    pub fn next(self) -> Self {
-        match self {
-            HudMode::Full => HudMode::Stats,
-            HudMode::Stats => HudMode::Off,
-            HudMode::Off => HudMode::Full,
-        }
-    }
-}
 
 /// What the HUD says about a frame.
 #[derive(Clone, Debug)]
@@ -52,7 +29,7 @@ pub struct HudInfo<'a> {
     pub cutoff_px: f32,
     /// The session: settings, refinement state, HUD mode.
     pub state: &'a ViewState,
-    /// The scene's [`Scene::label`](super::Scene::label).
+    /// The scene's [`Scene::label`](super::scene::Scene::label).
     pub label: &'a str,
 }
 
@@ -163,8 +140,9 @@ fn hud_style(color: Rgb565) -> MonoTextStyle<'static, Rgb565> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::view::{Action, ViewOptions};
     use crate::render::FrameBuffers;
+    use crate::view::options::ViewOptions;
+    use crate::view::state::Action;
 
     #[test]
     fn hud_draws_inside_the_frame_and_not_when_off() {

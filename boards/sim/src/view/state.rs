@@ -3,15 +3,37 @@
 use pocketsplat_core::camera::{self, Camera, Sphere};
 use pocketsplat_core::raster::Kernel;
 
-use super::hud::HudMode;
+use super::options::ViewOptions;
 use super::refine::Refiner;
-use super::ViewOptions;
 use crate::render::{Settings, ShadowMode};
 
 /// Nearest and farthest orbit distance, bounding-sphere radii.
 pub const DIST_RANGE: (f64, f64) = (0.05, 100.0);
 /// Highest elevation of the orbit, degrees (the pole itself has no "up").
 pub const MAX_ELEVATION_DEG: f64 = 89.0;
+
+/// What the HUD shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HudMode {
+    /// Statistics and the help lines.
+    #[default]
+    Full,
+    /// Statistics only.
+    Stats,
+    /// Nothing.
+    Off,
+}
+
+impl HudMode {
+    /// The next mode of the `H` key.
+    pub fn next(self) -> Self {
+        match self {
+            HudMode::Full => HudMode::Stats,
+            HudMode::Stats => HudMode::Off,
+            HudMode::Off => HudMode::Full,
+        }
+    }
+}
 
 /// One thing the user did.
 #[derive(Clone, Copy, Debug, PartialEq)]

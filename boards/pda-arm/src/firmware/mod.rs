@@ -1,0 +1,102 @@
+//! The firmware proper (bare-metal ARM only): the entry point, which owns the frame's buffers as
+//! statics and runs the sequence, and one module per job: [`run`] (the run sequences: what is drawn
+//! and printed, per build), [`memory`] (stack painting, RAM, flash and PSRAM use), [`faults`] (the
+//! HardFault and panic handlers, the self-tests), [`semihosting`] (ending the run), `disk` (the
+//! streamed disk image, semihosting file reads), [`marks`] (the markers an instruction counter finds).
+
+#[cfg(feature = "stream")]
+mod disk;
+mod faults;
+mod marks;
+mod memory;
+mod run;
+mod semihosting;
+
+use cortex_m_rt::entry;
+use pocketsplat_core::shade::ShadingTable;
+#[cfg(feature = "shadows")]
+use pocketsplat_core::shadow::LightFrame;
+#[cfg(any(feature = "model", feature = "stream"))]
+use pocketsplat_pda::Targets;
+#[cfg(feature = "shadows")]
+use pocketsplat_pda::SHADOW_MAP_SIZE;
+use pocketsplat_pda::{HEIGHT, WIDTH};
+
+#[cfg(all(feature = "model", feature = "stream"))]
+compile_error!("the features `model` (a model linked in) and `stream` (read from a disk image) exclude each other");
+#[cfg(all(feature = "selftest-fault", feature = "selftest-panic"))]
+compile_error!("the features `selftest-fault` and `selftest-panic` exclude each other");
+
+#[entry]
+fn main() -> ! {
+    // cortex-m-rt turns a `static mut` declared in the entry function into a `&'static mut`:
+    // the buffers sit in .bss (RAM), not on the stack, with no `unsafe`. Without a model the depth
+    // buffer and the table are unused and the linker drops them.
+    static mut COLOR: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    static mut DEPTH: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    static mut TABLE: ShadingTable<1> = ShadingTable::new();
+    #[cfg(feature = "shadows")]
+    static mut SHADOW: [u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE] =
+        [0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE];
+    #[cfg(feature = "shadows")]
+    static mut LIGHT: LightFrame = LightFrame::UNSET;
+    // The block cache and the per-block table of a streamed model (64 KB + 1 KB + 32 KB).
+    #[cfg(feature = "stream")]
+    static mut CACHE: [u8; pocketsplat_pda::stream::CACHE_BYTES] =
+        [0; pocketsplat_pda::stream::CACHE_BYTES];
+    #[cfg(feature = "stream")]
+    static mut STREAM: pocketsplat_pda::stream::StreamTables =
+        pocketsplat_pda::stream::StreamTables::EMPTY;
+    // A scene's tables: eight slots and the pack's map, beside the single model's (which a pack
+    // leaves unused, as a model leaves these).
+    #[cfg(all(feature = "model", feature = "scene"))]
+    static mut SCENE_TABLE: pocketsplat_pda::scene::SceneTable = ShadingTable::new();
+    #[cfg(all(feature = "model", feature = "scene"))]
+    static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
+
+    faults::selftest();
+    memory::paint_stack();
+    let psram_bytes = memory::check_psram();
+
+    #[cfg(all(feature = "model", feature = "scene"))]
+    if pocketsplat_pda::scene::is_pack(&run::model::MODEL) {
+        run::render_pack(pocketsplat_pda::scene::SceneTargets {
+            color: COLOR,
+            depth: DEPTH,
+            table: SCENE_TABLE,
+            shadow: SCENE_SHADOW,
+            // The single model's light frame: a pack run never renders one.
+            #[cfg(feature = "shadows")]
+            light: LIGHT,
+        });
+        run::report_memory(psram_bytes);
+    }
+    #[cfg(any(feature = "model", feature = "stream"))]
+    let targets = Targets {
+        color: COLOR,
+        depth: DEPTH,
+        table: TABLE,
+        #[cfg(feature = "shadows")]
+        shadow: SHADOW,
+        #[cfg(feature = "shadows")]
+        light: LIGHT,
+    };
+    #[cfg(feature = "model")]
+    run::render_model(targets);
+    #[cfg(feature = "stream")]
+    run::render_stream(targets, STREAM.with_cache(CACHE));
+    #[cfg(not(any(feature = "model", feature = "stream")))]
+    {
+        #[cfg(feature = "shadows")]
+        let _ = (&SHADOW, &LIGHT);
+        let _ = (&DEPTH, &TABLE);
+        run::render_pattern(COLOR);
+    }
+
+    run::report_memory(psram_bytes)
+}
+
+/// Shadow-map depths of a scene's map ([`pocketsplat_pda::scene::SCENE_MAP_SIZE`]²).
+#[cfg(all(feature = "model", feature = "scene"))]
+const SCENE_MAP_PIXELS: usize =
+    pocketsplat_pda::scene::SCENE_MAP_SIZE * pocketsplat_pda::scene::SCENE_MAP_SIZE;

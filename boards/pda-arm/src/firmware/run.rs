@@ -1,0 +1,211 @@
+//! The run sequences: what the firmware draws and prints, per build. A scene pack's named views, a
+//! linked-in model's standard views, a model streamed from a disk image, or frame 0 of the test
+//! pattern; then the memory report, which ends the run.
+
+use cortex_m_semihosting::{debug, hprintln};
+#[cfg(any(feature = "model", feature = "stream"))]
+use pocketsplat_pda::Targets;
+#[cfg(not(any(feature = "model", feature = "stream")))]
+use pocketsplat_pda::{HEIGHT, WIDTH};
+
+#[cfg(feature = "stream")]
+use embedded_sdmmc::{Mode, VolumeIdx};
+#[cfg(feature = "stream")]
+use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
+#[cfg(feature = "stream")]
+use pocketsplat_pda::stream::{stream_frames, StreamMemory};
+
+#[cfg(feature = "stream")]
+use super::disk::{HostDisk, IMAGE};
+use super::marks;
+use super::memory;
+use super::semihosting::exit;
+#[cfg(any(feature = "model", feature = "stream"))]
+use super::semihosting::fail;
+
+/// The baked model, in PSRAM (memory.x), loaded by QEMU with the rest of the ELF.
+#[cfg(feature = "model")]
+pub mod model {
+    /// The `.tg` or `.qs` file named by `POCKETSPLAT_PDA_MODEL` at build time.
+    #[link_section = ".psram"]
+    pub static MODEL: [u8; include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE")).len()] =
+        *include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE"));
+}
+
+/// Prints the memory report and ends the run with success.
+pub fn report_memory(psram_bytes: usize) -> ! {
+    hprintln!("ram_bytes {}", memory::ram_bytes());
+    hprintln!("stack_bytes {}", memory::stack_peak_bytes());
+    hprintln!("flash_bytes {}", memory::flash_bytes());
+    hprintln!("psram_bytes {}", psram_bytes);
+    exit(debug::EXIT_SUCCESS)
+}
+
+/// The named views of the linked-in scene pack at each cutoff, one line per frame, after a line
+/// on the scene and the RAM its frames need.
+#[cfg(all(feature = "model", feature = "scene"))]
+pub fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
+    use pocketsplat_core::scene::{ram_budget, Pack, Scene};
+    use pocketsplat_core::tg::Verify;
+    use pocketsplat_pda::scene::{render_scene_view, scene_frame_specs};
+
+    let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+    let pack = match Pack::open(bytes) {
+        Ok(pack) => pack,
+        Err(e) => fail(format_args!("pack: {e}")),
+    };
+    let scene = match Scene::open(pack, Verify::Structure) {
+        Ok(scene) => scene,
+        Err(e) => fail(format_args!("scene: {e}")),
+    };
+    let p = scene.pack();
+    let shadows = if cfg!(feature = "shadows") {
+        p.shadows()
+    } else {
+        pocketsplat_core::scene::ShadowMode::Off
+    };
+    hprintln!(
+        "pack bytes {} objects {} slots {} views {} map {} budget_bytes {}",
+        bytes.len(),
+        scene.len(),
+        p.slot_count(),
+        p.view_count(),
+        p.shadow_map_size(),
+        ram_budget(p, shadows, p.shadow_map_size()).total()
+    );
+    // The materials' power tables, once, before the first frame (no view needs them rebuilt).
+    targets
+        .table
+        .prepare(&scene.materials::<{ pocketsplat_core::scene::MAX_SLOTS }>());
+    for spec in scene_frame_specs(&scene) {
+        match render_scene_view(&scene, spec, &mut targets, marks::hit) {
+            Ok(report) => hprintln!("{}", report),
+            Err(e) => fail(format_args!("frame {spec:?}: {e}")),
+        }
+    }
+}
+
+/// The standard views of the linked-in model, one line per frame.
+#[cfg(feature = "model")]
+pub fn render_model(mut targets: Targets<'_>) {
+    use pocketsplat_core::tg::Verify;
+    use pocketsplat_pda::{model_frame_specs, render_standard_view, Model};
+
+    // Opaque: the bytes are a known constant, and the compiler must not fold any of the parse.
+    let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+    // Of a tri-grid, the header CRC and the structure; the 5 MB data CRC pass is for untrusted
+    // sources. A QSplat file is checked whole (its reader has one level).
+    let model = match Model::open_with(bytes, Verify::Structure) {
+        Ok(model) => model,
+        Err(e) => fail(format_args!("model: {e}")),
+    };
+    match &model {
+        Model::TriGrid(grid) => {
+            let h = grid.header();
+            hprintln!(
+                "model bytes {} rho {} depth {} samples {}",
+                bytes.len(),
+                h.rho,
+                h.depth,
+                grid.total_samples()
+            );
+        }
+        #[cfg(feature = "qsplat")]
+        Model::QSplat(file) => {
+            let c = file.counts();
+            hprintln!(
+                "model bytes {} qsplat trees {} depth {} leaves {} interior {}",
+                bytes.len(),
+                c.trees,
+                c.max_depth,
+                c.leaves,
+                c.interior
+            );
+        }
+        #[allow(unreachable_patterns)] // a pack is drawn by `render_pack`
+        _ => {}
+    }
+    // The material's power table, once, before the first frame (no view needs it rebuilt).
+    targets
+        .table
+        .prepare(&[model.material(model.options().material)]);
+    for spec in model_frame_specs(&model) {
+        match render_standard_view(&model, spec, &mut targets, marks::hit) {
+            Ok(report) => hprintln!("{}", report),
+            Err(e) => fail(format_args!("frame {spec:?}: {e}")),
+        }
+    }
+}
+
+/// Frame 0 of the test pattern (no model linked in).
+#[cfg(not(any(feature = "model", feature = "stream")))]
+pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
+    use pocketsplat_pda::{frame_crc, render_test_frame, FrameCrc, Phase, PIXELS};
+    // Opaque frame number: under LTO the whole frame is otherwise a constant the compiler may fold.
+    let frame = core::hint::black_box(0);
+    let fb: &mut [u16; PIXELS] = color
+        .as_flattened_mut()
+        .try_into()
+        .expect("WIDTH × HEIGHT pixels");
+    // Every phase is marked, as for a model's frame, so that an instruction counter sees the
+    // same markers in every build; only the last one does any work here.
+    for phase in Phase::ALL {
+        if phase != Phase::End {
+            marks::hit(phase);
+        }
+    }
+    render_test_frame(frame, fb);
+    marks::hit(Phase::End);
+    let crc = frame_crc(fb);
+    hprintln!("{}", FrameCrc { frame, crc });
+}
+
+/// The model's name in the volume's root directory (8.3).
+#[cfg(feature = "stream")]
+const MODEL_FILE: &str = "BUNNY.TG";
+
+#[cfg(feature = "stream")]
+/// Opens the image, its first FAT volume and [`MODEL_FILE`], and draws the streamed
+/// sequence, one line per frame; any failure to get that far ends the run with a message.
+pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
+    let disk = match HostDisk::open(IMAGE) {
+        Ok(d) => d,
+        Err(e) => fail(format_args!("image: {e}")),
+    };
+    hprintln!("image blocks {}", disk.blocks);
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+    let file = volumes
+        .open_raw_volume(VolumeIdx(0))
+        .and_then(|v| Ok((v, volumes.open_root_dir(v)?)))
+        .and_then(|(v, root)| {
+            Ok((
+                v,
+                volumes.open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)?,
+            ))
+        });
+    let (_volume, file) = match file {
+        Ok(f) => f,
+        Err(e) => fail(format_args!("{MODEL_FILE}: {e:?}")),
+    };
+    let sd = SdFile::new(&volumes, file);
+    match sd.len() {
+        Ok(n) => hprintln!("model file {} bytes {}", MODEL_FILE, n),
+        Err(e) => fail(format_args!("{MODEL_FILE}: {e:?}")),
+    }
+    // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably); with
+    // `selftest-pulled`, the card is pulled during the orbit.
+    #[cfg(feature = "selftest-flaky")]
+    let mut src = pocketsplat_pda::stream::flaky(sd);
+    #[cfg(all(feature = "selftest-pulled", not(feature = "selftest-flaky")))]
+    let mut src = pocketsplat_pda::stream::pulled(sd);
+    #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
+    let mut src = sd;
+    match stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
+        hprintln!("{}", f)
+    }) {
+        Ok(totals) => hprintln!("{}", totals),
+        Err(e) => fail(format_args!("stream: {e}")),
+    }
+    hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+}

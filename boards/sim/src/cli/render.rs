@@ -1,0 +1,127 @@
+//! `pocketsplat render INPUT -o OUT.png`: one frame of a point file, a scene pack or a mesh, read
+//! whole or streamed in blocks.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use clap::parser::ValueSource;
+use clap::ArgMatches;
+use pocketsplat_sim::args;
+use pocketsplat_sim::snapshot::{self, PackArgs};
+use pocketsplat_sim::stream::StreamOptions;
+
+use super::FrameArgs;
+
+/// The arguments of `render`.
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// A `.tg` file, a scene pack (its light, shadows and field of view unless given here;
+    /// `--view` may also name one of its views or `path@SECONDS`), or a PLY mesh for the
+    /// reference renderer.
+    input: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    out: PathBuf,
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// LOD cutoff: largest projected cell drawn as one splat, pixels.
+    #[arg(long, default_value_t = 1.0, value_parser = super::cutoff_px)]
+    cutoff: f32,
+    /// A point light instead of `--light`: X,Y,Z in bounding-sphere radii from the model's
+    /// centre, outside the sphere around its bounding cube. Its shadows are two-pass; shading
+    /// uses the direction from the centre.
+    #[arg(long, allow_hyphen_values = true, value_name = "X,Y,Z", value_parser = args::light_pos)]
+    light_pos: Option<[f64; 3]>,
+    /// Print one JSON object with the frame's statistics on stdout.
+    #[arg(long)]
+    stats_json: bool,
+    /// Tint each splat by how many levels above full detail it is drawn (Streaming QSplat
+    /// §4.1): white is full detail, then yellow, orange, red, magenta, blue, cyan, green for 7
+    /// or more; a key is drawn in the bottom-left corner. For .tg, .qs and .pack files.
+    #[arg(long)]
+    color_by_level: bool,
+    #[command(flatten)]
+    stream: StreamArgs,
+}
+
+/// Streaming: `render --stream` and its budgets.
+#[derive(Debug, clap::Args)]
+pub struct StreamArgs {
+    /// Read the `.tg` file (a path, or an `http://` URL served with byte ranges) in blocks
+    /// through a block cache, as a handheld reads an SD card, drawing frames until one misses
+    /// nothing; write that frame. Without shadows.
+    #[arg(long)]
+    stream: bool,
+    /// With `--stream`: bytes read per frame at most, 512 to 1G (K, M, G: 1024, 1024², 1024³).
+    #[arg(long, default_value = "64K", requires = "stream",
+          value_parser = args::size::<u32>(512, 1 << 30))]
+    io_budget: u32,
+    /// With `--stream`: bytes of block cache, 4K to 1G.
+    #[arg(long, default_value = "16M", requires = "stream",
+          value_parser = args::size::<usize>(4 << 10, 1 << 30))]
+    cache: usize,
+    /// With `--stream`: give up (an error, no output) after this many frames (1 to 1M), e.g.
+    /// when the view needs more blocks at once than the cache holds.
+    #[arg(long, default_value = "1000", requires = "stream",
+          value_parser = args::size::<u32>(1, 1 << 20))]
+    max_frames: u32,
+}
+
+/// The `render` command; `matches` are its own (`render`'s), which tell the flags given from those
+/// left at their defaults.
+///
+/// # Errors
+/// Bad arguments or input, naming the file; no output is written then.
+pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
+    let (input, out) = (&args.input, &args.out);
+    if pocketsplat_sim::input::is_pack(input) {
+        if args.stream.stream {
+            bail!(
+                "{}: --stream reads one .tg file (a path or an http:// URL); a scene pack \
+                 cannot be streamed yet: render it without --stream",
+                input.display()
+            );
+        }
+        // A pack brings its own light, shadows and field of view: flags left out keep them.
+        let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+        let f = &args.frame;
+        let pack = PackArgs {
+            view: f.view.clone(),
+            fov: given("fov").then_some(f.fov),
+            cutoff_px: args.cutoff,
+            kernel: f.kernel,
+            light_az_el: given("light").then_some(f.light),
+            shadows: given("shadows").then_some(f.shadows),
+            color_by_level: args.color_by_level,
+        };
+        return report(
+            snapshot::render_pack_file(input, out, &pack)?,
+            args.stats_json,
+        );
+    }
+    let mut settings = args.frame.settings(args.cutoff, args.color_by_level)?;
+    settings.light_pos = args.light_pos;
+    if args.stream.stream {
+        let opts = StreamOptions {
+            io_budget: args.stream.io_budget,
+            cache_bytes: args.stream.cache,
+            max_frames: args.stream.max_frames,
+        };
+        let input = input.to_string_lossy();
+        return pocketsplat_sim::stream::cmd::run(&input, out, &settings, &opts, args.stats_json);
+    }
+    report(
+        snapshot::render_file(input, out, &settings)?,
+        args.stats_json,
+    )
+}
+
+/// Prints the statistics (`--stats-json`, on stdout) or what was written (on stderr).
+fn report(snap: snapshot::Snapshot, stats_json: bool) -> Result<()> {
+    if stats_json {
+        println!("{}", snap.stats);
+    } else {
+        eprintln!("{}", snap.summary);
+    }
+    Ok(())
+}

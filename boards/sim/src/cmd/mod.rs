@@ -1,6 +1,0 @@
-//! The `pocketsplat` subcommands.
-
-pub mod bake;
-pub mod info;
-pub mod render;
-pub mod view;

@@ -1,0 +1,299 @@
+//! What a scene pack holds: per object what is present and what the bake left out, and the RAM a
+//! frame of it needs on the device.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Result;
+use pocketsplat_core::camera::Sphere;
+use pocketsplat_core::scene::{ram_budget, RamBudget, Savings, ShadowMode};
+use serde_json::json;
+
+use super::tg::tg_info;
+use crate::scene::render::ram_json;
+
+/// Statistics of a scene pack (`.pack`).
+#[derive(Clone, Debug)]
+pub struct PackInfo {
+    /// File size.
+    pub file_bytes: usize,
+    /// Bytes of the pack's own metadata (objects, materials, views, path).
+    pub metadata_bytes: usize,
+    /// Objects in the scene.
+    pub object_count: usize,
+    /// Per object, as `info --json` lists it: name, format, depths, samples, bytes, materials,
+    /// colour, shadows, placement and what the bake left out.
+    pub objects: Vec<serde_json::Value>,
+    /// Material slots.
+    pub material_slots: usize,
+    /// The named views: name, az, el, dist.
+    pub views: Vec<serde_json::Value>,
+    /// Keyframes of the camera path.
+    pub path_keyframes: usize,
+    /// Length of the camera path, seconds.
+    pub path_seconds: f64,
+    /// The light's azimuth and elevation, degrees.
+    pub light_az_el: (f64, f64),
+    /// The pack's shadows.
+    pub shadows: ShadowMode,
+    /// Side of its shadow map, texels.
+    pub shadow_map_size: usize,
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+    /// Smallest cell the bake kept, pixels.
+    pub min_cell_px: f64,
+    /// The sphere the views orbit.
+    pub sphere: Sphere,
+    /// Bytes the bake left out, over all objects.
+    pub saved_bytes: u64,
+    /// RAM a frame needs on the device.
+    pub ram: RamBudget,
+}
+
+/// Statistics of a pack's bytes; `path` names it in errors.
+///
+/// # Errors
+/// When the pack or an object's file is invalid.
+pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
+    let scene = crate::input::open_pack(path, bytes)?;
+    let pack = scene.pack();
+    let mut objects = Vec::new();
+    for i in 0..scene.len() {
+        let Some(r) = pack.object(i) else {
+            continue;
+        };
+        let slots: Vec<String> = r.slots[..usize::from(r.materials)]
+            .iter()
+            .map(|&s| {
+                pack.material(usize::from(s))
+                    .map_or("?", |m| m.name)
+                    .to_string()
+            })
+            .collect();
+        if let Some(q) = scene.qsplat(i) {
+            let c = q.counts();
+            objects.push(json!({
+                "name": r.name,
+                "format": "qsplat",
+                "depth_asked": r.depth_asked,
+                "depth_kept": r.depth_kept,
+                "samples": c.leaves + c.interior + u64::from(c.trees),
+                "leaf_samples": c.leaves,
+                "file_bytes": r.data.len(),
+                "materials": slots,
+                "material_bits": 0,
+                "color": c.color_trees > 0,
+                "casts_shadows": false,
+                "ground": r.ground,
+                "scale": r.placement.scale,
+                "translation": r.placement.translation,
+                "saved": saved_json(&r.savings),
+            }));
+            continue;
+        }
+        let Some(g) = scene.grid(i) else {
+            continue;
+        };
+        let h = g.header();
+        let info = tg_info(g);
+        objects.push(json!({
+            "name": r.name,
+            "format": match h.rho { 2 => "octree", _ => "tri-grid" },
+            "depth_asked": r.depth_asked,
+            "depth_kept": r.depth_kept,
+            "samples": info.total_samples,
+            "leaf_samples": info.leaf_samples,
+            "file_bytes": info.file_bytes,
+            "materials": slots,
+            "material_bits": h.material_bits,
+            "color": h.has_color(),
+            "casts_shadows": r.casts_shadows,
+            "ground": r.ground,
+            "scale": r.placement.scale,
+            "translation": r.placement.translation,
+            "saved": saved_json(&r.savings),
+        }));
+    }
+    let views: Vec<_> = (0..pack.view_count())
+        .filter_map(|v| pack.view(v))
+        .map(|(n, v)| json!({"name": n, "az": v.az_deg, "el": v.el_deg, "dist": v.dist}))
+        .collect();
+    let saved_bytes: u64 = objects
+        .iter()
+        .map(|o| o["saved"]["total"].as_u64().unwrap_or(0))
+        .sum();
+    Ok(PackInfo {
+        file_bytes: bytes.len(),
+        metadata_bytes: pack.meta_len(),
+        object_count: scene.len(),
+        objects,
+        material_slots: pack.slot_count(),
+        views,
+        path_keyframes: pack.path_len(),
+        path_seconds: pack.path_duration(),
+        light_az_el: pack.light_az_el(),
+        shadows: pack.shadows(),
+        shadow_map_size: pack.shadow_map_size(),
+        fov_deg: pack.fov_deg(),
+        min_cell_px: pack.min_cell_px(),
+        sphere: pack.sphere(),
+        saved_bytes,
+        ram: ram_budget(pack, pack.shadows(), pack.shadow_map_size()),
+    })
+}
+
+impl PackInfo {
+    /// The statistics as `info --json` prints them.
+    pub fn to_json(&self) -> serde_json::Value {
+        let (az, el) = self.light_az_el;
+        json!({
+            "format": "pack",
+            "file_bytes": self.file_bytes,
+            "metadata_bytes": self.metadata_bytes,
+            "objects": self.objects,
+            "material_slots": self.material_slots,
+            "views": self.views,
+            "path_keyframes": self.path_keyframes,
+            "path_seconds": self.path_seconds,
+            "light": {"az": az, "el": el},
+            "shadows": self.shadows.name(),
+            "shadow_map_size": self.shadow_map_size,
+            "fov": self.fov_deg,
+            "min_cell_px": self.min_cell_px,
+            "sphere": {"center": self.sphere.center, "radius": self.sphere.radius},
+            "saved_bytes": self.saved_bytes,
+            "ram": ram_json(&self.ram),
+        })
+    }
+
+    /// The statistics as `info` prints them, a table of the objects included; `path` heads them.
+    pub fn to_text(&self, path: &Path) -> String {
+        let mut out = String::new();
+        let (az, el) = self.light_az_el;
+        let sphere = &self.sphere;
+        let _ = writeln!(
+            out,
+            "{}: scene pack version 1, {} bytes ({} of metadata), {} objects, {} material slots",
+            path.display(),
+            self.file_bytes,
+            self.metadata_bytes,
+            self.object_count,
+            self.material_slots
+        );
+        let _ = writeln!(
+            out,
+            "  light az {az} el {el}; shadows {} (map {}²); fov {}°; views orbit a sphere of radius {:.4} at ({:.4}, {:.4}, {:.4})",
+            self.shadows.name(),
+            self.shadow_map_size,
+            self.fov_deg,
+            sphere.radius,
+            sphere.center[0],
+            sphere.center[1],
+            sphere.center[2]
+        );
+        let names: Vec<String> = self
+            .views
+            .iter()
+            .map(|v| {
+                format!(
+                    "{} ({},{},{})",
+                    v["name"].as_str().unwrap_or(""),
+                    v["az"],
+                    v["el"],
+                    v["dist"]
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "  views: {}{}",
+            if names.is_empty() {
+                "none".to_string()
+            } else {
+                names.join(", ")
+            },
+            if self.path_keyframes > 0 {
+                format!(
+                    "; camera path of {} keyframes over {} s",
+                    self.path_keyframes, self.path_seconds
+                )
+            } else {
+                String::new()
+            }
+        );
+        let _ = writeln!(
+            out,
+            "  {:<16} {:<8} {:>5} {:>10} {:>10}  {:<22} {:<10} left out",
+            "object", "format", "depth", "samples", "bytes", "materials (bits)", "colour"
+        );
+        for o in &self.objects {
+            let s = &o["saved"];
+            let mut left_out = Vec::new();
+            if s["levels"].as_u64().unwrap_or(0) > 0 {
+                left_out.push(format!(
+                    "levels {}..={}: {} B",
+                    o["depth_kept"].as_u64().unwrap_or(0) + 1,
+                    o["depth_asked"],
+                    s["levels"]
+                ));
+            }
+            if s["color"].as_u64().unwrap_or(0) > 0 {
+                left_out.push(format!("colour: {} B", s["color"]));
+            }
+            let mats: Vec<&str> = o["materials"]
+                .as_array()
+                .map(|a| a.iter().filter_map(|m| m.as_str()).collect())
+                .unwrap_or_default();
+            let _ = writeln!(
+                out,
+                "  {:<16} {:<8} {:>2}/{:<2} {:>10} {:>10}  {:<22} {:<10} {}",
+                o["name"].as_str().unwrap_or(""),
+                o["format"].as_str().unwrap_or(""),
+                o["depth_kept"],
+                o["depth_asked"],
+                o["samples"],
+                o["file_bytes"],
+                format!("{} ({})", mats.join("+"), o["material_bits"]),
+                if o["color"].as_bool().unwrap_or(false) {
+                    "RGB565"
+                } else {
+                    "absent"
+                },
+                if left_out.is_empty() {
+                    "nothing".to_string()
+                } else {
+                    left_out.join("; ")
+                }
+            );
+        }
+        let _ = writeln!(
+            out,
+            "  left out in all: {} bytes (material bits cost 0 bytes here: they share the u16 attribute with the normal code)",
+            self.saved_bytes
+        );
+        let ram = &self.ram;
+        let _ = writeln!(
+            out,
+            "  device RAM per frame: {} bytes = framebuffer {} + depth {} + shadow map {} + shading table {} + cache {} + frame setup {} + scene {}",
+            ram.total(),
+            ram.framebuffer,
+            ram.depth,
+            ram.shadow_map,
+            ram.shading_tables,
+            ram.cache,
+            ram.frame_setup,
+            ram.scene
+        );
+        out
+    }
+}
+
+/// What the bake left out of an object, as `info --json` lists it.
+fn saved_json(s: &Savings) -> serde_json::Value {
+    json!({
+        "levels": s.levels,
+        "color": s.color,
+        "material_bits": s.material_bits,
+        "total": u64::from(s.levels) + u64::from(s.color) + u64::from(s.material_bits),
+    })
+}

@@ -1,0 +1,173 @@
+//! What a tri-grid (`.tg`) file holds and what it costs: samples and α per level, bits per leaf.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use pocketsplat_core::tg::TriGrid;
+use serde::Serialize;
+
+/// One level of a `.tg` file.
+#[derive(Clone, Debug, Serialize)]
+pub struct LevelInfo {
+    /// Level (0 = the root).
+    pub depth: u8,
+    /// Samples at this level.
+    pub samples: u32,
+    /// Mean non-empty children per cell (α, Duguet §4.3); `null` at the leaf level.
+    pub alpha: Option<f64>,
+}
+
+/// Statistics of a `.tg` file.
+#[derive(Clone, Debug, Serialize)]
+pub struct TgInfo {
+    /// Always "tg".
+    pub format: &'static str,
+    /// Format version of the header (not in the JSON).
+    #[serde(skip)]
+    pub version: u16,
+    /// File size.
+    pub file_bytes: u64,
+    /// ρ.
+    pub rho: u8,
+    /// Subdivisions.
+    pub depth: u8,
+    /// Block size.
+    pub block_bytes: u32,
+    /// Material bits per sample.
+    pub material_bits: u8,
+    /// Whether samples carry colour.
+    pub color: bool,
+    /// Root cube corner and side.
+    pub root_cube: [f32; 4],
+    /// Leaf samples.
+    pub leaf_samples: u64,
+    /// Interior samples.
+    pub interior_samples: u64,
+    /// All samples.
+    pub total_samples: u64,
+    /// Per level.
+    pub levels: Vec<LevelInfo>,
+    /// α of the finest subdivision (leaves per cell one level up).
+    pub alpha_finest: Option<f64>,
+    /// File bytes per leaf sample.
+    pub bytes_per_leaf: f64,
+    /// Bits per leaf sample spent on everything but the leaves' own attributes (masks, group
+    /// pointers, interior samples, header, CRC table, padding).
+    pub structure_bits_per_leaf: f64,
+    /// The same as the paper's Table 1 counts it: (σ + ρ³) bits per interior cell, per leaf sample.
+    pub paper_structure_bits_per_leaf: f64,
+    /// Bits per leaf sample spent on group pointers.
+    pub pointer_bits_per_leaf: f64,
+}
+
+/// Attribute bits per sample as stored (13-bit normal + material bits, in a u16; + colour).
+fn sigma(tg: &TriGrid<'_>) -> u32 {
+    16 + if tg.header().has_color() { 16 } else { 0 }
+}
+
+/// Statistics of an opened `.tg` file.
+pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
+    let h = *tg.header();
+    let leaves = u64::from(tg.leaf_samples());
+    let total = tg.total_samples();
+    let interior = total - leaves;
+    let levels: Vec<LevelInfo> = (0..=h.depth)
+        .map(|d| {
+            let samples = tg.level(d).count;
+            let alpha =
+                (d < h.depth).then(|| f64::from(tg.level(d + 1).count) / f64::from(samples));
+            LevelInfo {
+                depth: d,
+                samples,
+                alpha,
+            }
+        })
+        .collect();
+    let file_bytes = tg.bytes().len() as u64;
+    let l = leaves.max(1) as f64;
+    let pointers: u64 = (0..h.depth.saturating_sub(1))
+        .map(|d| u64::from(tg.level(d).count))
+        .sum();
+    TgInfo {
+        format: "tg",
+        version: h.version,
+        file_bytes,
+        rho: h.rho,
+        depth: h.depth,
+        block_bytes: h.block_size() as u32,
+        material_bits: h.material_bits,
+        color: h.has_color(),
+        root_cube: [h.origin[0], h.origin[1], h.origin[2], h.side],
+        leaf_samples: leaves,
+        interior_samples: interior,
+        total_samples: total,
+        alpha_finest: h
+            .depth
+            .checked_sub(1)
+            .and_then(|d| levels[usize::from(d)].alpha),
+        levels,
+        bytes_per_leaf: file_bytes as f64 / l,
+        structure_bits_per_leaf: (file_bytes as f64 * 8.0 - leaves as f64 * f64::from(sigma(tg)))
+            / l,
+        paper_structure_bits_per_leaf: interior as f64
+            * f64::from(sigma(tg) + u32::from(h.rho).pow(3))
+            / l,
+        pointer_bits_per_leaf: pointers as f64 * 32.0 / l,
+    }
+}
+
+impl TgInfo {
+    /// The statistics as `info` prints them, a table of the levels included; `path` heads them.
+    pub fn to_text(&self, path: &Path) -> String {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{}: .tg version {}, rho {} ({}), depth {}",
+            path.display(),
+            self.version,
+            self.rho,
+            match self.rho {
+                2 => "octree",
+                3 => "tri-grid",
+                _ => "rho-grid",
+            },
+            self.depth
+        );
+        let _ = writeln!(
+            out,
+            "  root cube: corner ({}, {}, {}), side {}",
+            self.root_cube[0], self.root_cube[1], self.root_cube[2], self.root_cube[3]
+        );
+        let _ = writeln!(
+            out,
+            "  attributes: 13-bit normal, {} material bits, colour {}; blocks of {} bytes",
+            self.material_bits,
+            if self.color { "RGB565" } else { "none" },
+            self.block_bytes
+        );
+        let _ = writeln!(out, "  level      samples   alpha");
+        for l in &self.levels {
+            let kind = if l.depth == self.depth { "leaf" } else { "" };
+            let _ = match l.alpha {
+                Some(a) => writeln!(out, "  {:>5} {:>12} {:>7.3}", l.depth, l.samples, a),
+                None => writeln!(out, "  {:>5} {:>12}    -    {kind}", l.depth, l.samples),
+            };
+        }
+        let _ = writeln!(
+            out,
+            "  samples: {} ({} leaf, {} interior)",
+            self.total_samples, self.leaf_samples, self.interior_samples
+        );
+        let _ = writeln!(
+            out,
+            "  file: {} bytes, {:.3} bytes per leaf sample; structure {:.2} bits per leaf sample \
+             (paper's count {:.2}, group pointers {:.3})",
+            self.file_bytes,
+            self.bytes_per_leaf,
+            self.structure_bits_per_leaf,
+            self.paper_structure_bits_per_leaf,
+            self.pointer_bits_per_leaf
+        );
+        out
+    }
+}
