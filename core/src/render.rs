@@ -65,7 +65,7 @@ use crate::qs::{render_qs_colored, shading_material, QSplat, QsError, QsFrame};
 #[cfg(feature = "scene")]
 use crate::scene::{Pack, PackError, Scene, SceneError, SceneStats};
 #[cfg(feature = "shadows")]
-use crate::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
+use crate::shadow::{render_tg_shadowed, LightError, LightFrame, ShadowMap};
 #[cfg(feature = "stream")]
 use crate::stream::TgStream;
 #[cfg(feature = "trigrid")]
@@ -549,6 +549,10 @@ pub enum RenderError {
         /// Depths the target has.
         given: u32,
     },
+    /// The light cannot be set up (a point light inside the model's cube, a map side it cannot
+    /// use, a position that is not finite).
+    #[cfg(feature = "shadows")]
+    Light(LightError),
     /// A scene could not be drawn (its frames, its slots, its shadow map).
     #[cfg(feature = "scene")]
     Scene(SceneError),
@@ -571,6 +575,8 @@ impl fmt::Display for RenderError {
                 f,
                 "the shadow map needs {need} depths, the target has {given}"
             ),
+            #[cfg(feature = "shadows")]
+            RenderError::Light(e) => write!(f, "{e}"),
             #[cfg(feature = "scene")]
             RenderError::Scene(e) => write!(f, "{e}"),
         }
@@ -1049,12 +1055,7 @@ fn set_light(
             ))
         }
         Some(at) => {
-            *light = LightFrame::point(header, &placement, at, side).map_err(|_| {
-                RenderError::ShadowMap {
-                    need: (side * side).min(u32::MAX as usize) as u32,
-                    given: map_len.min(u32::MAX as usize) as u32,
-                }
-            })?
+            *light = LightFrame::point(header, &placement, at, side).map_err(RenderError::Light)?
         }
     }
     Ok(())

@@ -13,7 +13,8 @@ use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::NullSink;
 use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
-use pocketsplat_sim::render::{render_tg_with, FrameBuffers, Settings, ShadowMode};
+use pocketsplat_core::render::Model;
+use pocketsplat_sim::render::{render_with, FrameBuffers, Settings, ShadowMode};
 
 /// Smallest block (512 B) keeps the files, and so the fuzzer's inputs, small.
 pub const BLOCK_LOG2: u8 = 9;
@@ -197,7 +198,9 @@ pub fn render_checked(grid: &TriGrid<'_>, look: &Look, raster: bool) {
         return;
     }
     RASTER.with_borrow_mut(|(fb, table)| {
-        let Ok(report) = render_tg_with(grid, &settings, table, fb, |_, _| {}) else {
+        let model = Model::TriGrid(*grid);
+        let cam = settings.camera_for(&model);
+        let Ok(report) = render_with(&model, &settings, &cam, table, fb, |_, _| {}) else {
             return;
         };
         let passes = if settings.shadows == ShadowMode::TwoPass {
@@ -270,8 +273,6 @@ pub fn qs_base_files() -> &'static [Vec<u8>] {
 pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
     use pocketsplat_core::camera::{Camera, Sphere};
     use pocketsplat_core::qs::{render_qs, QSplat, QsFrame};
-    use pocketsplat_core::raster::Framebuffer;
-    use pocketsplat_core::splat::ShadedRaster;
     let Ok(file) = QSplat::open(bytes) else {
         return;
     };
@@ -295,16 +296,16 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
         );
         assert!(stats.splats <= stats.nodes_visited);
         RASTER.with_borrow_mut(|(fb, table)| {
-            table.update(&[s.material], s.light_dir(), [0.0, 0.0, 1.0]);
-            let mut fbuf = Framebuffer::new(&mut fb.color, &mut fb.depth);
-            fbuf.clear(0);
-            let mut sink = ShadedRaster {
-                fb: &mut fbuf,
-                table,
-                kernel: s.kernel,
+            // Through the program's pipeline (the core's `render`), colours and all.
+            let model = Model::QSplat(file);
+            let settings = Settings {
+                shadows: ShadowMode::Off,
+                ..s
             };
-            let again = render_qs(&file, &frame, &mut sink);
-            assert_eq!(again, stats, "the raster changes what the traversal visits");
+            let Ok(again) = render_with(&model, &settings, &cam, table, fb, |_, _| {}) else {
+                return;
+            };
+            assert_eq!(again.stats, stats, "the raster changes what the traversal visits");
         });
     }
 }
@@ -529,11 +530,13 @@ pub fn stream_checked(
             },
             (Err(_), None) => return,
         };
-        let streamed = fb.color.clone();
+        let streamed = fb.pixels().to_vec();
         let mut resident = FrameBuffers::new();
-        if render_tg_with(&grid, &settings, table, &mut resident, |_, _| {}).is_ok() {
+        let model = Model::TriGrid(grid);
+        let cam = settings.camera_for(&model);
+        if render_with(&model, &settings, &cam, table, &mut resident, |_, _| {}).is_ok() {
             assert!(
-                streamed == resident.color,
+                streamed == resident.pixels(),
                 "converged stream differs from {what}"
             );
         }

@@ -304,7 +304,7 @@ fn a_frame_without_shadows_allocates_no_shadow_map() {
     let grid = TriGrid::open(&bytes, Verify::Full).unwrap();
     let mut fb = FrameBuffers::new();
     render_tg_frame(&grid, &Settings::default(), &mut fb).unwrap();
-    assert_eq!(fb.shadow.capacity(), 0, "shadows off allocated a map");
+    assert!(fb.shadow_map().is_empty(), "shadows off allocated a map");
     for mode in [ShadowMode::OnePass, ShadowMode::TwoPass] {
         let settings = Settings {
             shadows: mode,
@@ -313,7 +313,7 @@ fn a_frame_without_shadows_allocates_no_shadow_map() {
         };
         render_tg_frame(&grid, &settings, &mut fb).unwrap();
         assert_eq!(
-            fb.shadow.len(),
+            fb.shadow_map().len(),
             100 * 100,
             "{mode:?}: the map is the size asked for"
         );

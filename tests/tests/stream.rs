@@ -48,7 +48,7 @@ fn resident(file: &[u8], settings: &Settings) -> (u32, Vec<u16>) {
     let grid = TriGrid::open(file, Verify::Full).unwrap();
     let mut fb = FrameBuffers::new();
     render_tg_frame(&grid, settings, &mut fb).unwrap();
-    (fb.crc(), fb.depth.as_flattened().to_vec())
+    (fb.crc(), fb.depths().to_vec())
 }
 
 fn opts(cache_bytes: usize) -> StreamOptions {
@@ -136,7 +136,7 @@ fn every_torture_source_converges_to_the_resident_frame() {
                 }
             };
             let (crc, depth) = &want[usize::from(*use_small)];
-            if fb.crc() != *crc || fb.depth.as_flattened() != &depth[..] {
+            if fb.crc() != *crc || fb.depths() != &depth[..] {
                 failures.push(format!(
                     "{view_name}, {name}: frame CRC {:08x}, resident {crc:08x}",
                     fb.crc()
@@ -401,7 +401,7 @@ fn a_refined_frame_larger_than_the_cache_is_drawn_in_passes_to_the_resident_fram
                     continue;
                 }
             };
-            if fb.crc() != crc || fb.depth.as_flattened() != &depth[..] {
+            if fb.crc() != crc || fb.depths() != &depth[..] {
                 failures.push(format!(
                     "{view_name}, {} KB: frame CRC {:08x}, resident {crc:08x}",
                     cache / 1024,
@@ -450,7 +450,7 @@ fn the_trefoil_through_a_tiny_cache_is_drawn_in_passes_to_the_resident_frame() {
         let out = stream_render(&mut src, &settings, &opts(12 * 512), &mut fb)
             .unwrap_or_else(|e| panic!("{view_name}: {e:#}"));
         assert_eq!(fb.crc(), crc, "{view_name}");
-        assert_eq!(fb.depth.as_flattened(), &depth[..], "{view_name}");
+        assert_eq!(fb.depths(), &depth[..], "{view_name}");
         // A cache of a ninth of the file: what the walk revisits across passes is read again at
         // times, but the refined frame stays near one read of the file.
         assert!(out.passes > 0, "{view_name}: drawn in passes");

@@ -48,6 +48,11 @@ use pocketsplat_core::crc::Crc32;
 // The panel's size, a build-time choice (build.rs: `POCKETSPLAT_PDA_PANEL=WxH`, 240x320 by
 // default): `WIDTH` and `HEIGHT`, pixels.
 include!(concat!(env!("OUT_DIR"), "/panel.rs"));
+/// The panel as the core's viewport.
+pub const PANEL: pocketsplat_core::camera::Viewport = pocketsplat_core::camera::Viewport {
+    width: WIDTH as u16,
+    height: HEIGHT as u16,
+};
 /// Pixels in a frame.
 pub const PIXELS: usize = WIDTH * HEIGHT;
 /// Size of one RGB565 framebuffer, bytes.

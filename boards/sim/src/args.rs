@@ -21,7 +21,7 @@
 //! ```
 
 use anyhow::{anyhow, bail, Result};
-use pocketsplat_core::camera::View;
+use pocketsplat_core::camera::{View, Viewport};
 use pocketsplat_core::scene::Pack;
 
 /// Why a number on the command line was refused.
@@ -149,6 +149,32 @@ pub fn parse_view(text: &str) -> Result<View> {
 pub fn light_az_el(text: &str) -> Result<(f64, f64), String> {
     let [az, el] = numbers::<2>(text)?;
     Ok((az, el))
+}
+
+/// A frame size `WxH` in pixels (a value parser for `--size`), each side from 16 to 2048: the
+/// buffers' size, which the projection follows.
+///
+/// # Errors
+/// When it is not two whole numbers joined by `x`, or a side is out of range.
+pub fn frame_size(text: &str) -> Result<Viewport, String> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{text}`: want WIDTHxHEIGHT in pixels, e.g. 320x240"))?;
+    let side = |t: &str, what: &str| -> Result<u32, String> {
+        let n: u32 = t
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{text}`: the {what} `{t}` is not a whole number of pixels"))?;
+        if !(16..=u32::from(Viewport::MAX_SIDE)).contains(&n) {
+            return Err(format!(
+                "`{text}`: the {what} must be from 16 to {} pixels",
+                Viewport::MAX_SIDE
+            ));
+        }
+        Ok(n)
+    };
+    let (w, h) = (side(w, "width")?, side(h, "height")?);
+    Viewport::new(w, h).ok_or_else(|| format!("`{text}`: not a frame size"))
 }
 
 /// A point light's position `X,Y,Z` in bounding-sphere radii from the sphere's centre (a value

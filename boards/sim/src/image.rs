@@ -7,14 +7,15 @@
 //! # Example
 //!
 //! ```
-//! use pocketsplat_core::camera::{HEIGHT, WIDTH};
+//! use pocketsplat_core::camera::Viewport;
 //! use pocketsplat_sim::image::{read_rgb8_png, write_rgb565_png};
 //!
 //! let dir = tempfile::tempdir()?;
 //! let path = dir.path().join("frame.png");
-//! write_rgb565_png(&path, &vec![0xF800; WIDTH * HEIGHT])?; // pure red
+//! let landscape = Viewport::new(320, 240).unwrap();
+//! write_rgb565_png(&path, landscape, &vec![0xF800; 320 * 240])?; // pure red
 //! let img = read_rgb8_png(&path)?;
-//! assert_eq!((img.width, img.height), (WIDTH as u32, HEIGHT as u32));
+//! assert_eq!((img.width, img.height), (320, 240));
 //! assert_eq!(img.pixels[0], [255, 0, 0]);
 //! # Ok::<(), anyhow::Error>(())
 //! ```
@@ -23,7 +24,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use pocketsplat_core::camera::{HEIGHT, WIDTH};
+use pocketsplat_core::camera::{Viewport, HEIGHT, WIDTH};
 use pocketsplat_core::shade::rgb565_to_rgb888;
 
 use crate::fsutil::write_atomic;
@@ -39,14 +40,23 @@ pub struct Rgb8Image {
     pub pixels: Vec<[u8; 3]>,
 }
 
-/// Writes a `WIDTH × HEIGHT` (240 × 320) RGB565 framebuffer as an 8-bit RGB PNG, each channel
-/// expanded by bit replication ([`rgb565_to_rgb888`]).
+/// Writes an RGB565 frame of `viewport`'s size as an 8-bit RGB PNG, each channel expanded by bit
+/// replication ([`rgb565_to_rgb888`]).
 ///
 /// # Errors
-/// When `pixels` is not 240 × 320, or the file cannot be written (nothing is left behind then).
-pub fn write_rgb565_png(path: &Path, pixels: &[u16]) -> Result<()> {
+/// When `pixels` does not hold the viewport's pixels, or the file cannot be written (nothing is
+/// left behind then).
+pub fn write_rgb565_png(path: &Path, viewport: Viewport, pixels: &[u16]) -> Result<()> {
     let rgb: Vec<[u8; 3]> = pixels.iter().map(|&p| rgb565_to_rgb888(p)).collect();
-    write_rgb8_png(path, &rgb)
+    write_rgb8_png_sized(path, viewport.width.into(), viewport.height.into(), &rgb)
+}
+
+/// Writes a frame ([`crate::render::Image`], any size) as a PNG: [`write_rgb565_png`].
+///
+/// # Errors
+/// When the file cannot be written (nothing is left behind then).
+pub fn write_image_png(path: &Path, image: &crate::render::Image) -> Result<()> {
+    write_rgb565_png(path, image.viewport(), image.pixels())
 }
 
 /// Writes a `WIDTH × HEIGHT` (240 × 320) 8-bit RGB frame as a PNG.

@@ -148,10 +148,10 @@ pub fn legend<D: DrawTarget<Color = Rgb565>>(
 }
 
 /// [`legend`] in the bottom-left corner of a frame.
-pub fn legend_in_corner(fb: &mut pocketsplat_core::raster::Framebuffer<'_>) {
-    let y = pocketsplat_core::camera::HEIGHT as i32 - LEGEND_HEIGHT;
-    // The framebuffer draws infallibly.
-    let _ = legend(fb, 0, y);
+pub fn legend_in_corner(image: &mut crate::render::Image) {
+    let y = i32::from(image.viewport().height) - LEGEND_HEIGHT;
+    // The image draws infallibly.
+    let _ = legend(image, 0, y);
 }
 
 #[cfg(test)]

@@ -45,11 +45,11 @@
 //! };
 //! let cam = Camera::orbit(Sphere::from_bounds(mesh.bounds_f32()), View::new(0.0, 0.0, 3.0), 45.0);
 //! let img = render_reference(&mesh, &cam, &[DEFAULT_MATERIAL], camera::direction(0.0, 0.0));
-//! assert!(img.covered[camera::WIDTH * 160 + 120]); // the centre of the frame
+//! assert!(img.covered[camera::WIDTH * 160 + 120]); // the centre of the 240 × 320 frame
 //! ```
 
 use pocketsplat_core::bake::TriMesh;
-use pocketsplat_core::camera::{self, Camera, Sphere, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::camera::{self, Camera, Sphere, Vec3, Viewport};
 use pocketsplat_core::shade::{self, Material, DEFAULT_MATERIAL};
 use rayon::prelude::*;
 
@@ -59,7 +59,8 @@ use crate::render::{Settings, ShadowMode};
 /// Rows per raster band (the unit of parallel work).
 const BAND_ROWS: usize = 8;
 
-/// A frame of the reference renderer, row-major, `WIDTH × HEIGHT` (240 × 320) entries per field.
+/// A frame of the reference renderer, row-major, one entry per pixel of the camera's viewport per
+/// field (240 × 320 by default).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefImage {
     /// Linear colour, 0..=1 per channel; black where nothing is drawn.
@@ -75,13 +76,14 @@ pub struct RefImage {
 }
 
 impl RefImage {
-    /// A frame with nothing drawn: black, uncovered, infinitely far.
-    pub fn empty() -> Self {
+    /// A frame of `viewport`'s size with nothing drawn: black, uncovered, infinitely far.
+    pub fn empty(viewport: Viewport) -> Self {
+        let n = viewport.pixels();
         Self {
-            rgb: vec![[0.0; 3]; WIDTH * HEIGHT],
-            covered: vec![false; WIDTH * HEIGHT],
-            depth: vec![f64::INFINITY; WIDTH * HEIGHT],
-            shadowed: vec![false; WIDTH * HEIGHT],
+            rgb: vec![[0.0; 3]; n],
+            covered: vec![false; n],
+            depth: vec![f64::INFINITY; n],
+            shadowed: vec![false; n],
         }
     }
 
@@ -218,7 +220,8 @@ pub fn render_reference_shadowed(
         .collect();
 
     // Bin primitives into bands of rows, keeping mesh order inside each band.
-    let bands = HEIGHT.div_ceil(BAND_ROWS);
+    let pixels = camera.viewport.pixels();
+    let bands = usize::from(camera.viewport.height).div_ceil(BAND_ROWS);
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
     for (k, p) in prims.iter().enumerate() {
         for bin in &mut bins[p.rows.0 / BAND_ROWS..=p.rows.1 / BAND_ROWS] {
@@ -247,10 +250,10 @@ pub fn render_reference_shadowed(
         .collect();
 
     let mut out = RefImage {
-        rgb: Vec::with_capacity(WIDTH * HEIGHT),
-        covered: Vec::with_capacity(WIDTH * HEIGHT),
-        depth: Vec::with_capacity(WIDTH * HEIGHT),
-        shadowed: Vec::with_capacity(WIDTH * HEIGHT),
+        rgb: Vec::with_capacity(pixels),
+        covered: Vec::with_capacity(pixels),
+        depth: Vec::with_capacity(pixels),
+        shadowed: Vec::with_capacity(pixels),
     };
     for band in band_images {
         out.rgb.extend(band.rgb);
@@ -379,8 +382,9 @@ impl Setup<'_> {
                 .map(|s| s[a])
                 .fold(f64::NEG_INFINITY, f64::max)
         };
-        let cols = centre_range(min(0), max(0), WIDTH)?;
-        let rows = centre_range(min(1), max(1), HEIGHT)?;
+        let view = self.camera.viewport;
+        let cols = centre_range(min(0), max(0), usize::from(view.width))?;
+        let rows = centre_range(min(1), max(1), usize::from(view.height))?;
         let v = order.map(|k| v[k]);
         Some(Prim {
             screen,
@@ -455,8 +459,12 @@ struct Shading<'a> {
 
 /// Rasterizes the primitives of one band (rows `y0 ..`), then shades the visible samples.
 fn raster_band(y0: usize, prims: &[Prim], bin: &[u32], shading: &Shading<'_>) -> RefImage {
-    let rows = BAND_ROWS.min(HEIGHT - y0);
-    let n = rows * WIDTH;
+    let (width, height) = (
+        usize::from(shading.camera.viewport.width),
+        usize::from(shading.camera.viewport.height),
+    );
+    let rows = BAND_ROWS.min(height - y0);
+    let n = rows * width;
     let mut depth = vec![f64::INFINITY; n];
     // Winning primitive and its perspective-correct barycentric weights, shaded at the end so that
     // overdrawn samples cost no Phong evaluation.
@@ -479,7 +487,7 @@ fn raster_band(y0: usize, prims: &[Prim], bin: &[u32], shading: &Shading<'_>) ->
                 let w = [e[0] / p.cam[0][2], e[1] / p.cam[1][2], e[2] / p.cam[2][2]];
                 let s = w[0] + w[1] + w[2];
                 let z = (e[0] + e[1] + e[2]) / s;
-                let i = (y - y0) * WIDTH + x;
+                let i = (y - y0) * width + x;
                 if z < depth[i] {
                     depth[i] = z;
                     winner[i] = Some((k, w.map(|w| w / s)));

@@ -1,35 +1,115 @@
-//! Rendering point files on the desktop through the same core code the firmware runs.
+//! Rendering point files on the desktop through the core's one pipeline, the firmware's code
+//! ([`pocketsplat_core::render`]): every format, every size, into [`FrameBuffers`].
+//!
+//! The frame is an [`Image`] of any size (an embedded-graphics display, which the core draws into
+//! through a [`DisplayTarget`] with the depth buffer beside it, as a user's display), so that
+//! `--size` is the size of the buffers and the projection follows it.
 
 use std::time::{Duration, Instant};
 
-use pocketsplat_core::camera::{self, Camera, Placement, Sphere, View, DEFAULT_FOV_DEG};
+use embedded_graphics::pixelcolor::raw::RawU16;
+use embedded_graphics::pixelcolor::Rgb565;
+use embedded_graphics::prelude::*;
+use embedded_graphics::primitives::Rectangle;
+use pocketsplat_core::camera::{self, Camera, Sphere, View, Viewport, DEFAULT_FOV_DEG};
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
-use pocketsplat_core::raster::Splat;
-use pocketsplat_core::raster::{Framebuffer, Kernel};
+use pocketsplat_core::raster::{crc565, draw_splat, DisplayTarget, Kernel, Splat, DEPTH_FAR};
+use pocketsplat_core::render::{render_marked, Layer, Model, Pass, Phase, RenderOptions, Target};
+use pocketsplat_core::scene::SceneStats;
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+use pocketsplat_core::shadow::LightFrame;
 pub use pocketsplat_core::shadow::ShadowMode;
-use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap};
-use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, SplatSink, Stats};
+use pocketsplat_core::splat::{ColorSink, LevelTint, SampleSplat, SplatSink, Stats};
+use pocketsplat_core::tg::TriGrid;
 
 use crate::levels::Levels;
-use pocketsplat_core::render::RenderOptions;
-use pocketsplat_core::tg::read::Header;
-use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid};
 
-/// Width and height of every frame.
+/// Width and height of the reference frame (`--size` picks another).
 pub use pocketsplat_core::camera::{HEIGHT, WIDTH};
 
-/// Colour rows of a frame.
-pub type Rows = Box<[[u16; WIDTH]; HEIGHT]>;
+/// An RGB565 image of any size on the heap: the simulator's display. The core draws a frame into it
+/// through a [`DisplayTarget`]; overlays (the viewer's HUD, the colour key) draw with
+/// embedded-graphics.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Image {
+    viewport: Viewport,
+    pixels: Vec<u16>,
+}
 
-/// An owned frame: colour and depth on the heap, and a shadow map once shadows are used.
+impl Image {
+    /// A black image of `viewport`'s size.
+    pub fn new(viewport: Viewport) -> Self {
+        Self {
+            viewport,
+            pixels: vec![0; viewport.pixels()],
+        }
+    }
+
+    /// Its size.
+    pub fn viewport(&self) -> Viewport {
+        self.viewport
+    }
+
+    /// The pixels, row by row.
+    pub fn pixels(&self) -> &[u16] {
+        &self.pixels
+    }
+
+    /// Pixel `(x, y)`.
+    pub fn at(&self, x: usize, y: usize) -> u16 {
+        self.pixels[y * usize::from(self.viewport.width) + x]
+    }
+}
+
+impl OriginDimensions for Image {
+    fn size(&self) -> Size {
+        Size::new(self.viewport.width.into(), self.viewport.height.into())
+    }
+}
+
+impl DrawTarget for Image {
+    type Color = Rgb565;
+    type Error = core::convert::Infallible;
+
+    fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(
+        &mut self,
+        pixels: I,
+    ) -> Result<(), Self::Error> {
+        let (w, h) = (
+            i32::from(self.viewport.width),
+            i32::from(self.viewport.height),
+        );
+        for Pixel(p, c) in pixels {
+            if (0..w).contains(&p.x) && (0..h).contains(&p.y) {
+                self.pixels[(p.y * w + p.x) as usize] = RawU16::from(c).into_inner();
+            }
+        }
+        Ok(())
+    }
+
+    fn fill_solid(&mut self, area: &Rectangle, color: Rgb565) -> Result<(), Self::Error> {
+        let area = area.intersection(&self.bounding_box());
+        let Some(br) = area.bottom_right() else {
+            return Ok(());
+        };
+        let raw = RawU16::from(color).into_inner();
+        let w = usize::from(self.viewport.width);
+        for y in area.top_left.y as usize..=br.y as usize {
+            self.pixels[y * w + area.top_left.x as usize..=y * w + br.x as usize].fill(raw);
+        }
+        Ok(())
+    }
+}
+
+/// An owned frame: the image, its depth buffer, and the shadow map and light tables once shadows
+/// are used. The reference 240 × 320 by default, any [`Viewport`] with [`FrameBuffers::sized`].
 pub struct FrameBuffers {
-    /// RGB565 rows.
-    pub color: Rows,
-    /// Depth rows.
-    pub depth: Rows,
+    /// The pixels.
+    pub image: Image,
+    depth: Vec<u16>,
     /// Shadow-map depths, allocated on first use.
-    pub shadow: Vec<u16>,
+    shadow: Vec<u16>,
+    light: Box<LightFrame>,
 }
 
 impl Default for FrameBuffers {
@@ -39,41 +119,76 @@ impl Default for FrameBuffers {
 }
 
 impl FrameBuffers {
-    /// Black, depth cleared.
+    /// Black, depth cleared, 240 × 320.
     pub fn new() -> Self {
-        let rows = || -> Rows {
-            vec![[0u16; WIDTH]; HEIGHT]
-                .into_boxed_slice()
-                .try_into()
-                .expect("HEIGHT rows")
-        };
-        let mut f = Self {
-            color: rows(),
-            depth: rows(),
+        Self::sized(Viewport::DEFAULT)
+    }
+
+    /// Black, depth cleared, of `viewport`'s size.
+    pub fn sized(viewport: Viewport) -> Self {
+        Self {
+            image: Image::new(viewport),
+            depth: vec![DEPTH_FAR; viewport.pixels()],
             shadow: Vec::new(),
-        };
-        f.framebuffer().clear(0);
-        f
+            light: Box::new(LightFrame::UNSET),
+        }
     }
-    /// The core framebuffer over these buffers.
-    pub fn framebuffer(&mut self) -> Framebuffer<'_> {
-        Framebuffer::new(&mut self.color, &mut self.depth)
+
+    /// The frame's size.
+    pub fn viewport(&self) -> Viewport {
+        self.image.viewport
     }
+
     /// Pixels in row order.
     pub fn pixels(&self) -> &[u16] {
-        self.color.as_flattened()
+        self.image.pixels()
     }
+
+    /// Depths in row order ([`DEPTH_FAR`] where nothing was drawn).
+    pub fn depths(&self) -> &[u16] {
+        &self.depth
+    }
+
+    /// Shadow-map depths kept for the frames that ask for shadows (empty until one does).
+    pub fn shadow_map(&self) -> &[u16] {
+        &self.shadow
+    }
+
     /// Whether each pixel was drawn (depth written).
     pub fn covered(&self) -> Vec<bool> {
-        self.depth
-            .as_flattened()
-            .iter()
-            .map(|&d| d != pocketsplat_core::raster::DEPTH_FAR)
-            .collect()
+        self.depth.iter().map(|&d| d != DEPTH_FAR).collect()
     }
+
     /// CRC-32 of the colour buffer, as the firmware computes it.
-    pub fn crc(&mut self) -> u32 {
-        self.framebuffer().crc()
+    pub fn crc(&self) -> u32 {
+        crc565(self.pixels())
+    }
+
+    /// The pixels and depth buffer as the core's [`DisplayTarget`], for drawing splats directly.
+    pub fn display(&mut self) -> DisplayTarget<'_, Image> {
+        DisplayTarget::new(&mut self.image, &mut self.depth).expect("a depth value per pixel")
+    }
+
+    /// The core's render target over these buffers, shading through `table`; with a shadow map of
+    /// `shadow_side`² depths (grown on first use) when the frame asks for shadows.
+    pub fn target<'t, const M: usize>(
+        &'t mut self,
+        table: &'t mut ShadingTable<M>,
+        shadow_side: Option<usize>,
+    ) -> Target<'t, DisplayTarget<'t, Image>, M> {
+        let pixels =
+            DisplayTarget::new(&mut self.image, &mut self.depth).expect("a depth value per pixel");
+        let target = Target::new(pixels, table);
+        match shadow_side {
+            Some(side) => {
+                let need = side.saturating_mul(side);
+                if self.shadow.len() < need {
+                    self.shadow.resize(need, u16::MAX);
+                }
+                target.with_shadows(&mut self.shadow, &mut self.light)
+            }
+            None => target,
+        }
     }
 }
 
@@ -105,6 +220,8 @@ pub struct Settings {
     pub shadow_map_size: usize,
     /// Tint each splat by how many levels above full detail it is ([`crate::levels`]).
     pub color_by_level: bool,
+    /// The frame's size (`--size`): the buffers' size, which the projection follows.
+    pub size: Viewport,
 }
 
 impl Default for Settings {
@@ -120,6 +237,7 @@ impl Default for Settings {
             shadows: ShadowMode::Off,
             shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
             color_by_level: false,
+            size: Viewport::DEFAULT,
         }
     }
 }
@@ -144,9 +262,14 @@ impl ModelBounds for [[f64; 3]; 2] {
 }
 
 impl Settings {
-    /// The camera for a model with this bounding box.
+    /// The camera for a model with this bounding box, for a frame of [`Settings::size`].
     pub fn camera(&self, bounds: impl ModelBounds) -> Camera {
-        Camera::orbit(bounds.sphere(), self.view, self.fov_deg)
+        Camera::orbit(bounds.sphere(), self.view, self.fov_deg).for_viewport(self.size)
+    }
+
+    /// Buffers for a frame of [`Settings::size`].
+    pub fn buffers(&self) -> FrameBuffers {
+        FrameBuffers::sized(self.size)
     }
     /// Unit direction to the light (for a point light, from the bounding-sphere centre).
     pub fn light_dir(&self) -> [f64; 3] {
@@ -161,51 +284,53 @@ impl Settings {
         self.light_pos
             .map(|p| camera::add(s.center, camera::scale(p, s.radius)))
     }
-}
 
-/// The light's tables for a grid (shadows on).
-///
-/// # Errors
-/// One-pass shadows with a point light, or a point light inside the sphere around the grid's root
-/// cube.
-pub fn light_frame(header: &Header, settings: &Settings) -> anyhow::Result<LightFrame> {
-    let n = settings.shadow_map_size;
-    match settings.light_position(header.bounds64) {
-        None => Ok(LightFrame::new(
-            header,
-            &Placement::IDENTITY,
-            settings.light_dir(),
-            n,
-        )),
-        Some(_) if settings.shadows == ShadowMode::OnePass => anyhow::bail!(
-            "one-pass shadows need a directional light (Duguet §5.3); use --shadows two-pass \
-             with --light-pos"
-        ),
-        Some(at) => LightFrame::point(header, &Placement::IDENTITY, at, n).map_err(|e| {
-            let p = settings.light_pos.unwrap_or_default();
-            anyhow::anyhow!("--light-pos {},{},{}: {e}", p[0], p[1], p[2])
-        }),
+    /// The orbit camera of these settings about `model` (a tri-grid's precise bounds when it has
+    /// them), for a frame of [`Settings::size`] (the core fits it to the buffers' size anyway).
+    pub fn camera_for(&self, model: &Model<'_>) -> Camera {
+        self.camera(model.sphere())
+    }
+
+    /// The core's options for `model`: these settings' cutoff, kernel, light, material and shadows.
+    ///
+    /// # Errors
+    /// One-pass shadows with a point light (Duguet §5.3 needs one light direction), or a point
+    /// light for a scene (lit by a directional light).
+    pub fn options(&self, model: &Model<'_>) -> anyhow::Result<RenderOptions> {
+        let light_position = match self.light_pos {
+            None => None,
+            Some(_) if matches!(model, Model::Scene(_)) => anyhow::bail!(
+                "a scene is lit by a directional light; --light-pos is for single models"
+            ),
+            Some(_) if self.shadows == ShadowMode::OnePass => anyhow::bail!(
+                "one-pass shadows need a directional light (Duguet §5.3); use --shadows two-pass \
+                 with --light-pos"
+            ),
+            Some(_) => self.light_position(model.sphere()),
+        };
+        Ok(self.render_options(light_position))
+    }
+
+    /// The core's options of these settings, with a point light at `light_position` (model
+    /// units) or none.
+    pub fn render_options(&self, light_position: Option<[f64; 3]>) -> RenderOptions {
+        RenderOptions {
+            cutoff_px: self.cutoff_px,
+            kernel: self.kernel,
+            shadows: self.shadows,
+            light_dir: self.light_dir(),
+            light_position,
+            shadow_map_size: self.shadow_map_size,
+            material: self.material,
+            ..RenderOptions::default()
+        }
     }
 }
 
-/// Draws a set-up frame into `sink`, with the shadows `settings` ask for (the map in `shadow`,
-/// grown on first use).
-fn draw<S: SplatSink>(
-    grid: &TriGrid<'_>,
-    settings: &Settings,
-    frame: &TgFrame,
-    shadow: &mut Vec<u16>,
-    sink: &mut S,
-) -> anyhow::Result<Stats> {
-    Ok(if settings.shadows == ShadowMode::Off {
-        render_tg(grid, frame, sink)
-    } else {
-        let light = light_frame(grid.header(), settings)?;
-        let n = settings.shadow_map_size;
-        shadow.resize(n * n, u16::MAX);
-        let mut map = ShadowMap::new(shadow, n);
-        render_tg_shadowed(grid, frame, &light, &mut map, settings.shadows, sink)
-    })
+impl ModelBounds for Sphere {
+    fn sphere(self) -> Sphere {
+        self
+    }
 }
 
 /// Statistics of a rendered frame.
@@ -213,11 +338,148 @@ fn draw<S: SplatSink>(
 pub struct FrameReport {
     /// Traversal counts.
     pub stats: Stats,
-    /// Wall time of setup + traversal + raster (no clearing).
+    /// Wall time of setup, table, traversal and raster (not the clearing).
     pub time: Duration,
+    /// A scene pack's counts per object.
+    pub scene: Option<SceneStats>,
 }
 
-/// Renders one frame of a tri-grid into `out` (cleared first).
+/// Colour by resolution ([`crate::levels`]): every splat tinted by its levels above full detail.
+pub struct Tinted<'l>(pub &'l Levels);
+
+impl Layer for Tinted<'_> {
+    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+        let levels = self.0;
+        let mut tinted = LevelTint {
+            sink,
+            levels: |object, s: &SampleSplat| levels.of(object, s),
+            object: 0,
+        };
+        pass.run(&mut tinted)
+    }
+}
+
+/// No layer, or colour by resolution.
+pub enum Layers<'l> {
+    /// Straight into the raster.
+    Direct,
+    /// [`Tinted`].
+    Tinted(Tinted<'l>),
+}
+
+impl Layer for Layers<'_> {
+    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+        match self {
+            Layers::Direct => pass.run(sink),
+            Layers::Tinted(t) => t.run(pass, sink),
+        }
+    }
+}
+
+/// The levels colour by resolution needs for `model`.
+pub fn levels_of(model: &Model<'_>) -> Levels {
+    match model {
+        Model::TriGrid(grid) => Levels::of_grid(grid.header().depth),
+        Model::QSplat(file) => Levels::of_qsplat(file),
+        Model::Scene(scene) => Levels::of_scene(scene),
+    }
+}
+
+/// Renders one frame of `model` seen by `cam` into `out` through the core's pipeline
+/// ([`render_marked`]), shading through `table` (kept by the caller, rebuilt only when the light
+/// or view turns) and drawing `layer` between the traversal and the raster; `overlay` may draw over
+/// the finished frame. The camera is fitted to `out`'s size.
+///
+/// # Errors
+/// When the frame cannot be set up ([`pocketsplat_core::render::RenderError`]: a bad camera or
+/// cutoff, shadows a model cannot have, a scene with more slots than `M`).
+pub fn render_from<const M: usize>(
+    model: &Model<'_>,
+    cam: &Camera,
+    options: &RenderOptions,
+    table: &mut ShadingTable<M>,
+    out: &mut FrameBuffers,
+    layer: &mut impl Layer,
+    overlay: impl FnOnce(&mut Image, &FrameReport),
+) -> anyhow::Result<FrameReport> {
+    let shadow_side = (options.shadows != ShadowMode::Off).then_some(options.shadow_map_size);
+    let t = Instant::now();
+    let (mut clear_at, mut clear_time) = (None, Duration::ZERO);
+    let drawn = {
+        let mut target = out.target(table, shadow_side);
+        render_marked(
+            model,
+            cam,
+            options,
+            &mut target,
+            layer,
+            |phase| match phase {
+                Phase::Clear => clear_at = Some(Instant::now()),
+                Phase::Traverse => {
+                    if let Some(c) = clear_at {
+                        clear_time = c.elapsed();
+                    }
+                }
+                _ => {}
+            },
+        )
+    }
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let report = FrameReport {
+        stats: drawn.stats,
+        time: t.elapsed().saturating_sub(clear_time),
+        scene: drawn.scene,
+    };
+    overlay(&mut out.image, &report);
+    Ok(report)
+}
+
+/// Renders one frame of `model` from `cam` as `settings` say (their options; colour by resolution
+/// when asked) into `out`, with a caller-owned table: the viewer's and the reports' frames.
+///
+/// # Errors
+/// As [`render_from`], and a point light with one-pass shadows or for a scene.
+pub fn render_with<const M: usize>(
+    model: &Model<'_>,
+    settings: &Settings,
+    cam: &Camera,
+    table: &mut ShadingTable<M>,
+    out: &mut FrameBuffers,
+    overlay: impl FnOnce(&mut Image, &FrameReport),
+) -> anyhow::Result<FrameReport> {
+    let options = settings.options(model)?;
+    let levels = settings.color_by_level.then(|| levels_of(model));
+    let mut layer = match &levels {
+        Some(l) => Layers::Tinted(Tinted(l)),
+        None => Layers::Direct,
+    };
+    render_from(model, cam, &options, table, out, &mut layer, overlay)
+}
+
+/// Renders one frame of `model` as `settings` say (its orbit camera, its options; colour by
+/// resolution when asked), into `out`, with a table of its own.
+///
+/// # Errors
+/// As [`render_from`], and a point light with one-pass shadows.
+pub fn render_frame(
+    model: &Model<'_>,
+    settings: &Settings,
+    out: &mut FrameBuffers,
+) -> anyhow::Result<FrameReport> {
+    let cam = settings.camera_for(model);
+    match model {
+        Model::Scene(_) => {
+            let mut table = crate::scene::render::scene_table();
+            render_with(model, settings, &cam, &mut table, out, |_, _| {})
+        }
+        _ => {
+            let mut table = Box::new(ShadingTable::<1>::new());
+            render_with(model, settings, &cam, &mut table, out, |_, _| {})
+        }
+    }
+}
+
+/// Renders one frame of a tri-grid into `out` (cleared first), as [`render_frame`].
 ///
 /// # Errors
 /// When the frame cannot be set up (ρ above 3, bad camera).
@@ -226,93 +488,7 @@ pub fn render_tg_frame(
     settings: &Settings,
     out: &mut FrameBuffers,
 ) -> anyhow::Result<FrameReport> {
-    let mut table = Box::new(ShadingTable::<1>::new());
-    render_tg_with(grid, settings, &mut table, out, |_, _| {})
-}
-
-/// Renders with a caller-owned shading table (rebuilt only when light or view change) and a hook
-/// that may draw over the frame before it is returned.
-///
-/// # Errors
-/// When the frame cannot be set up.
-pub fn render_tg_with(
-    grid: &TriGrid<'_>,
-    settings: &Settings,
-    table: &mut ShadingTable<1>,
-    out: &mut FrameBuffers,
-    overlay: impl FnOnce(&mut Framebuffer<'_>, &Stats),
-) -> anyhow::Result<FrameReport> {
-    let cam = settings.camera(grid.header().bounds64);
-    render_tg_from(grid, settings, &cam, table, out, |fb, report| {
-        overlay(fb, &report.stats)
-    })
-}
-
-/// A frame's per-frame setup from `settings` and `cam`: the tri-grid frame tables of the model
-/// described by `header`, and the shading table updated for the light and the viewer.
-///
-/// # Errors
-/// When the frame cannot be set up.
-pub fn frame_setup(
-    header: &Header,
-    settings: &Settings,
-    cam: &Camera,
-    table: &mut ShadingTable<1>,
-) -> anyhow::Result<TgFrame> {
-    let opts = RenderOptions {
-        cutoff_px: settings.cutoff_px,
-        kernel: settings.kernel,
-        ..RenderOptions::default()
-    };
-    let frame = TgFrame::new(header, &Placement::IDENTITY, cam, &opts)?;
-    table.update(
-        &[settings.material],
-        settings.light_dir(),
-        camera::scale(cam.forward, -1.0),
-    );
-    Ok(frame)
-}
-
-/// As [`render_tg_with`], from `cam` instead of the orbit camera of `settings.view` (the viewer
-/// pans the orbit centre); the hook also sees the frame's time.
-///
-/// # Errors
-/// When the frame cannot be set up.
-pub fn render_tg_from(
-    grid: &TriGrid<'_>,
-    settings: &Settings,
-    cam: &Camera,
-    table: &mut ShadingTable<1>,
-    out: &mut FrameBuffers,
-    overlay: impl FnOnce(&mut Framebuffer<'_>, &FrameReport),
-) -> anyhow::Result<FrameReport> {
-    let t = Instant::now();
-    let frame = frame_setup(grid.header(), settings, cam, table)?;
-    // Borrow the fields apart: the shadow map is used while the framebuffer is.
-    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
-    fb.clear(0);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
-        table,
-        kernel: settings.kernel,
-    };
-    let stats = if settings.color_by_level {
-        let levels = Levels::of_grid(grid.header().depth);
-        let mut tinted = LevelTint {
-            sink: &mut sink,
-            levels: |object, s: &SampleSplat| levels.of(object, s),
-            object: 0,
-        };
-        draw(grid, settings, &frame, &mut out.shadow, &mut tinted)?
-    } else {
-        draw(grid, settings, &frame, &mut out.shadow, &mut sink)?
-    };
-    let report = FrameReport {
-        stats,
-        time: t.elapsed(),
-    };
-    overlay(&mut fb, &report);
-    Ok(report)
+    render_frame(&Model::TriGrid(*grid), settings, out)
 }
 
 /// A frame with each pixel's lit/shadowed classification, for comparison with the reference
@@ -328,20 +504,23 @@ pub struct Classified {
     pub shadowed: Vec<bool>,
 }
 
-/// Splats through the shading table into the frame and, into a second framebuffer with the same
-/// depth test, each splat's class (1 lit, 2 unlit): the same splats in the same order give the same
-/// winner per pixel in both.
-struct ClassTee<'f, 'b, 't, 'c, 'd> {
-    shaded: ShadedRaster<'f, 't, Framebuffer<'b>, 1>,
-    class: &'c mut Framebuffer<'d>,
+/// Each splat into the raster and, into a second image with the same depth test, its class (1 lit,
+/// 2 unlit): the same splats in the same order give the same winner per pixel in both.
+struct ClassTee<'c> {
+    class: DisplayTarget<'c, Image>,
+    kernel: Kernel,
     to_light_q14: [i32; 3],
 }
 
-impl SplatSink for ClassTee<'_, '_, '_, '_, '_> {
-    fn splat(&mut self, s: &SampleSplat) {
-        self.shaded.splat(s);
+struct Tee<'t, 'c, S> {
+    sink: &'t mut S,
+    tee: &'t mut ClassTee<'c>,
+}
+
+impl<S: ColorSink> Tee<'_, '_, S> {
+    fn classify(&mut self, s: &SampleSplat) {
         let n = NORMALS_Q14[usize::from(s.attr) & (NORMAL_COUNT - 1)].map(i32::from);
-        let l = self.to_light_q14;
+        let l = self.tee.to_light_q14;
         let cos = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) >> 14;
         let splat = Splat {
             x_q8: s.x_q8,
@@ -350,12 +529,32 @@ impl SplatSink for ClassTee<'_, '_, '_, '_, '_> {
             depth: s.depth,
             color: if s.shadowed || cos <= 0 { 2 } else { 1 },
         };
-        self.class.splat(&splat, self.shaded.kernel, s.exact);
+        draw_splat(&mut self.tee.class, &splat, self.tee.kernel, s.exact);
+    }
+}
+
+impl<S: ColorSink> SplatSink for Tee<'_, '_, S> {
+    fn splat(&mut self, s: &SampleSplat) {
+        self.sink.splat(s);
+        self.classify(s);
+    }
+}
+
+impl<S: ColorSink> ColorSink for Tee<'_, '_, S> {
+    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
+        self.sink.splat_colored(s, rgb565);
+        self.classify(s);
+    }
+}
+
+impl Layer for ClassTee<'_> {
+    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+        pass.run(&mut Tee { sink, tee: self })
     }
 }
 
 /// Renders one frame like [`render_tg_frame`] and classifies every pixel lit or unlit (slower: a
-/// second framebuffer; time it with [`render_tg_frame`]).
+/// second image; time it with [`render_tg_frame`]).
 ///
 /// # Errors
 /// When the frame cannot be set up.
@@ -364,38 +563,22 @@ pub fn render_tg_classified(
     settings: &Settings,
     out: &mut FrameBuffers,
 ) -> anyhow::Result<Classified> {
-    let cam = settings.camera(grid.header().bounds64);
-    let opts = RenderOptions {
-        cutoff_px: settings.cutoff_px,
-        kernel: settings.kernel,
-        ..RenderOptions::default()
-    };
-    let t = Instant::now();
-    let frame = TgFrame::new(grid.header(), &Placement::IDENTITY, &cam, &opts)?;
+    let model = Model::TriGrid(*grid);
+    let cam = settings.camera_for(&model);
+    let options = settings.options(&model)?;
     let mut table = Box::new(ShadingTable::<1>::new());
-    table.update(
-        &[settings.material],
-        settings.light_dir(),
-        camera::scale(cam.forward, -1.0),
-    );
-    let mut class = FrameBuffers::new();
-    let mut class_fb = class.framebuffer();
-    class_fb.clear(0);
-    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
-    fb.clear(0);
-    let mut sink = ClassTee {
-        shaded: ShadedRaster {
-            fb: &mut fb,
-            table: &table,
-            kernel: settings.kernel,
-        },
-        class: &mut class_fb,
+    let viewport = out.viewport();
+    let (mut class, mut class_depth) = (Image::new(viewport), vec![DEPTH_FAR; viewport.pixels()]);
+    let mut tee = ClassTee {
+        class: DisplayTarget::new(&mut class, &mut class_depth).expect("a depth per pixel"),
+        kernel: options.kernel,
         to_light_q14: settings.light_dir().map(|c| (c * 16384.0).round() as i32),
     };
-    let stats = draw(grid, settings, &frame, &mut out.shadow, &mut sink)?;
-    let time = t.elapsed();
+    // The class image is cleared with the frame: its depth test starts as the frame's.
+    pocketsplat_core::raster::DepthTarget::clear(&mut tee.class, 0);
+    let report = render_from(&model, &cam, &options, &mut table, out, &mut tee, |_, _| {})?;
     Ok(Classified {
-        report: FrameReport { stats, time },
+        report,
         covered: class.pixels().iter().map(|&c| c != 0).collect(),
         shadowed: class.pixels().iter().map(|&c| c == 2).collect(),
     })

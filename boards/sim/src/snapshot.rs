@@ -9,6 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Result};
+use pocketsplat_core::camera::Viewport;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::scene::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
@@ -67,16 +68,16 @@ pub fn render_file(input: &Path, out: &Path, settings: &Settings) -> Result<Snap
 /// tinted by level.
 fn write_frame(out: &Path, fb: &mut FrameBuffers, color_by_level: bool) -> Result<()> {
     if color_by_level {
-        crate::levels::legend_in_corner(&mut fb.framebuffer());
+        crate::levels::legend_in_corner(&mut fb.image);
     }
-    image::write_rgb565_png(out, fb.pixels())
+    image::write_image_png(out, &fb.image)
 }
 
 fn render_qs(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json::Value> {
     let bytes = crate::qsplat::read_qs(input)?;
     let file = pocketsplat_core::qs::QSplat::open(&bytes)
         .map_err(|e| anyhow!("{}: {e}", input.display()))?;
-    let mut fb = FrameBuffers::new();
+    let mut fb = settings.buffers();
     let r = crate::qsplat::render_qs_frame(&file, settings, &mut fb)
         .map_err(|e| anyhow!("{}: {e:#}", input.display()))?;
     write_frame(out, &mut fb, settings.color_by_level)?;
@@ -94,7 +95,7 @@ fn render_tg(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json
     let bytes = crate::fsutil::read_file(input)?;
     let grid =
         TriGrid::open(&bytes, Verify::Full).map_err(|e| anyhow!("{}: {e}", input.display()))?;
-    let mut fb = FrameBuffers::new();
+    let mut fb = settings.buffers();
     let r = render_tg_frame(&grid, settings, &mut fb)?;
     write_frame(out, &mut fb, settings.color_by_level)?;
     let s = r.stats;
@@ -131,7 +132,8 @@ fn render_mesh(input: &Path, out: &Path, settings: &Settings) -> Result<serde_js
         rays.as_ref(),
     );
     let ms = t_render.elapsed().as_secs_f64() * 1e3;
-    image::write_rgb8_png(out, &img.to_rgb8())?;
+    let size = settings.size;
+    image::write_rgb8_png_sized(out, size.width.into(), size.height.into(), &img.to_rgb8())?;
     let covered = img.covered.iter().filter(|&&c| c).count();
     Ok(json!({
         "input": input.display().to_string(), "renderer": "reference",
@@ -159,6 +161,8 @@ pub struct PackArgs {
     pub shadows: Option<ShadowMode>,
     /// Tint splats by their levels above full detail, with a key.
     pub color_by_level: bool,
+    /// The frame's size.
+    pub size: Viewport,
 }
 
 /// Renders the scene pack `input` and writes the frame to `out`.
@@ -176,7 +180,7 @@ pub fn render_pack_file(input: &Path, out: &Path, args: &PackArgs) -> Result<Sna
     settings.shadows = args.shadows;
     settings.light_az_el = args.light_az_el;
     settings.color_by_level = args.color_by_level;
-    let mut fb = FrameBuffers::new();
+    let mut fb = FrameBuffers::sized(args.size);
     let frame = render_pack(&scene, &settings, &mut fb)?;
     write_frame(out, &mut fb, args.color_by_level)?;
     let mut v = stats_json(&frame.stats.total);

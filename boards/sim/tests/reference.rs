@@ -810,7 +810,10 @@ fn degenerate_and_invisible_triangles_draw_nothing() {
     let img = render(&m, &cam);
     assert_eq!(img.covered_count(), 0);
     // An empty mesh renders an empty frame.
-    assert_eq!(render(&TriMesh::default(), &cam), RefImage::empty());
+    assert_eq!(
+        render(&TriMesh::default(), &cam),
+        RefImage::empty(Viewport::DEFAULT)
+    );
 }
 
 #[test]
@@ -888,7 +891,7 @@ fn png_round_trip_and_errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let fb: Vec<u16> = (0..N).map(|i| (i * 2654435761 % 65536) as u16).collect();
     let path = dir.path().join("frame.png");
-    write_rgb565_png(&path, &fb).unwrap();
+    write_rgb565_png(&path, Viewport::DEFAULT, &fb).unwrap();
     let img = read_rgb8_png(&path).unwrap();
     assert_eq!((img.width, img.height), (WIDTH as u32, HEIGHT as u32));
     let want: Vec<[u8; 3]> = fb.iter().map(|&p| shade::rgb565_to_rgb888(p)).collect();
@@ -911,7 +914,7 @@ fn png_round_trip_and_errors_name_the_file() {
 
     // A folder that does not exist.
     let missing = dir.path().join("no/such/dir/out.png");
-    let err = write_rgb565_png(&missing, &fb).unwrap_err();
+    let err = write_rgb565_png(&missing, Viewport::DEFAULT, &fb).unwrap_err();
     assert!(format!("{err:#}").contains("out.png"), "{err:#}");
 
     // Not a PNG, and a PNG of the wrong size for a frame.

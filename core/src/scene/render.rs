@@ -29,7 +29,7 @@
 
 use super::pack::Pack;
 use super::{Kind, ObjectRecord, ShadowMode, MAX_OBJECTS, MAX_SLOTS};
-use crate::camera::{self, Camera, Sphere, Vec3, View, HEIGHT, WIDTH};
+use crate::camera::{self, Camera, Sphere, Vec3, View, Viewport};
 use crate::normal::NORMAL_BITS;
 #[cfg(feature = "qsplat")]
 use crate::qs::{render_qs, QSplat, QsError, QsFrame};
@@ -665,9 +665,9 @@ fn slotted<'s, S: SplatSink>(scene: &Scene<'_>, i: usize, sink: &'s mut S) -> Sl
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RamBudget {
-    /// RGB565 colour, 240 × 320.
+    /// RGB565 colour, a value per pixel of the frame.
     pub framebuffer: usize,
-    /// 16-bit depth, 240 × 320.
+    /// 16-bit depth, a value per pixel.
     pub depth: usize,
     /// The shadow map (0 without shadows).
     pub shadow_map: usize,
@@ -712,8 +712,13 @@ pub fn shading_table_bytes(slots: usize) -> usize {
 
 /// The RAM a frame of `pack` needs with `shadows` (usually the pack's; `Off` when the build leaves
 /// shadows out) and a shadow map of `map_size`² texels, its shading table holding exactly the
-/// pack's slots (a build with a larger table pays for it).
-pub fn ram_budget(pack: &Pack<'_>, shadows: ShadowMode, map_size: usize) -> RamBudget {
+/// pack's slots (a build with a larger table pays for it), for frames of `viewport`'s size.
+pub fn ram_budget(
+    pack: &Pack<'_>,
+    shadows: ShadowMode,
+    map_size: usize,
+    viewport: Viewport,
+) -> RamBudget {
     let side = map_size;
     let shadowed = shadows != ShadowMode::Off && cfg!(feature = "shadows");
     #[cfg(feature = "shadows")]
@@ -739,8 +744,8 @@ pub fn ram_budget(pack: &Pack<'_>, shadows: ShadowMode, map_size: usize) -> RamB
         0
     };
     RamBudget {
-        framebuffer: WIDTH * HEIGHT * 2,
-        depth: WIDTH * HEIGHT * 2,
+        framebuffer: viewport.pixels() * 2,
+        depth: viewport.pixels() * 2,
         shadow_map: if shadowed { side * side * 2 } else { 0 },
         shading_tables: shading_table_bytes(pack.slot_count()),
         cache: 0,

@@ -71,7 +71,7 @@ pub fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
         p.slot_count(),
         p.view_count(),
         p.shadow_map_size(),
-        ram_budget(p, shadows, p.shadow_map_size()).total()
+        ram_budget(p, shadows, p.shadow_map_size(), pocketsplat_pda::PANEL).total()
     );
     // The materials' power tables, once, before the first frame (no view needs them rebuilt).
     targets

@@ -24,7 +24,7 @@ pub fn run() -> Result<()> {
     let path = Path::new("pocketsplat-demo.png");
     let mut fb = FrameBuffers::new();
     let report = render_tg_frame(&grid, &Settings::default(), &mut fb)?;
-    pocketsplat_sim::image::write_rgb565_png(path, fb.pixels())?;
+    pocketsplat_sim::image::write_image_png(path, &fb.image)?;
     eprintln!(
         "wrote {} ({} splats, {} nodes, {:.1} ms)",
         path.display(),

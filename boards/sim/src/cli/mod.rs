@@ -17,6 +17,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use pocketsplat_core::camera::Viewport;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::shade::ShadowMode;
 use pocketsplat_sim::args::{self, Ends};
@@ -44,6 +45,10 @@ pub struct FrameArgs {
     /// first). For a mesh, `render`'s reference renderer casts exact shadow rays instead.
     #[arg(long, default_value = "off", value_parser = shadow_mode())]
     pub shadows: ShadowMode,
+    /// The frame's size WIDTHxHEIGHT in pixels, e.g. 320x240 (landscape) or 128x160; the
+    /// projection follows it, keeping the vertical field of view.
+    #[arg(long, default_value = "240x320", value_name = "WxH", value_parser = args::frame_size)]
+    pub size: Viewport,
 }
 
 impl FrameArgs {
@@ -60,6 +65,7 @@ impl FrameArgs {
             light_az_el: self.light,
             shadows: self.shadows,
             color_by_level,
+            size: self.size,
             ..Settings::default()
         })
     }

@@ -93,6 +93,7 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
             light_az_el: given("light").then_some(f.light),
             shadows: given("shadows").then_some(f.shadows),
             color_by_level: args.color_by_level,
+            size: f.size,
         };
         return report(
             snapshot::render_pack_file(input, out, &pack)?,

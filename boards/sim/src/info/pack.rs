@@ -138,7 +138,12 @@ pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
         min_cell_px: pack.min_cell_px(),
         sphere: pack.sphere(),
         saved_bytes,
-        ram: ram_budget(pack, pack.shadows(), pack.shadow_map_size()),
+        ram: ram_budget(
+            pack,
+            pack.shadows(),
+            pack.shadow_map_size(),
+            pocketsplat_core::camera::Viewport::DEFAULT,
+        ),
     })
 }
 

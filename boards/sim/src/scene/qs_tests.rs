@@ -86,18 +86,17 @@ fn a_scene_qs_object_draws_what_the_qsplat_renderer_draws() {
     assert_eq!(settings.camera(file.bounds()), cam, "the same camera");
     let mut b = FrameBuffers::new();
     let mut table = Box::new(pocketsplat_core::shade::ShadingTable::<1>::new());
-    crate::qsplat::render_qs_with(&file, &settings, &mut table, &mut b, |_, _| {}).unwrap();
+    let model = pocketsplat_core::render::Model::QSplat(file);
+    crate::render::render_with(&model, &settings, &cam, &mut table, &mut b, |_, _| {}).unwrap();
 
     let (mut covered, mut mismatch, mut equal) = (0usize, 0usize, 0usize);
-    for (ra, rb) in a.color.iter().zip(b.color.iter()) {
-        for (&pa, &pb) in ra.iter().zip(rb) {
-            covered += usize::from(pb != 0);
-            mismatch += usize::from((pa != 0) != (pb != 0));
-            equal += usize::from(pa != 0 && pa == pb);
-        }
+    for (&pa, &pb) in a.pixels().iter().zip(b.pixels()) {
+        covered += usize::from(pb != 0);
+        mismatch += usize::from((pa != 0) != (pb != 0));
+        equal += usize::from(pa != 0 && pa == pb);
     }
     assert!(covered > 2000, "the knot covers {covered} pixels");
-    let total = a.color.len() * a.color[0].len();
+    let total = a.pixels().len();
     assert!(
         (mismatch as f64) < 0.005 * total as f64,
         "coverage differs at {mismatch} of {total} pixels"
@@ -146,9 +145,8 @@ fn a_scene_qs_object_z_tests_against_a_tri_grid_ground() {
         render(&s_ground, &cam, mode, &mut g);
         render(&s_knot, &cam, mode, &mut k);
         let (mut ground_seen, mut knot_seen, mut overlap, mut knot_wins) = (0, 0, 0, 0);
-        for y in 0..a.color.len() {
-            for x in 0..a.color[0].len() {
-                let (pa, pg, pk) = (a.color[y][x], g.color[y][x], k.color[y][x]);
+        {
+            for ((&pa, &pg), &pk) in a.pixels().iter().zip(g.pixels()).zip(k.pixels()) {
                 if pk == 0 && pg != 0 && pa == pg {
                     ground_seen += 1;
                 }

@@ -3,20 +3,18 @@
 //! [`render_pack`] is the call a report makes: a pack's view at a given cutoff, kernel and shadow
 //! mode, into [`FrameBuffers`], with timing, statistics and the RAM the device would need.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
 use pocketsplat_core::camera::{self, Camera, Sphere, View};
-use pocketsplat_core::raster::{Framebuffer, Kernel};
-use pocketsplat_core::render::RenderOptions;
-use pocketsplat_core::scene::{
-    ram_budget, render_scene, RamBudget, Scene, SceneStats, ShadowMode, MAX_SLOTS,
-};
+use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::render::{Model, RenderOptions};
+use pocketsplat_core::scene::{ram_budget, RamBudget, Scene, SceneStats, ShadowMode, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
+use pocketsplat_core::splat::Stats;
 
 use crate::levels::Levels;
-use crate::render::{FrameBuffers, FrameReport, Settings};
+use crate::render::{render_from, FrameBuffers, FrameReport, Image, Layers, Settings, Tinted};
 
 /// The shading table the simulator uses for every scene (8 slots, the most a pack has).
 pub type SceneTable = ShadingTable<MAX_SLOTS>;
@@ -43,6 +41,7 @@ impl SceneFrame {
         FrameReport {
             stats: self.stats.total,
             time: self.time,
+            scene: Some(self.stats),
         }
     }
 }
@@ -140,9 +139,10 @@ impl PackSettings {
     }
 }
 
-/// Renders a frame of `scene` from `camera` into `out` (cleared first), with a caller-owned table
-/// (rebuilt only for slots whose light, view or material changed) and a hook that may draw over the
-/// frame; with `levels`, every splat is tinted by its levels above full detail ([`crate::levels`]).
+/// Renders a frame of `scene` from `camera` into `out` (cleared first) through the core's pipeline
+/// ([`render_from`]), with a caller-owned table (rebuilt only for slots whose light, view or
+/// material changed) and a hook that may draw over the frame; with `levels`, every splat is tinted
+/// by its levels above full detail ([`crate::levels`]).
 ///
 /// # Errors
 /// When a frame cannot be set up (bad camera or cutoff).
@@ -153,40 +153,43 @@ pub fn render_pack_from(
     levels: Option<&Levels>,
     table: &mut SceneTable,
     out: &mut FrameBuffers,
-    overlay: impl FnOnce(&mut Framebuffer<'_>, &SceneFrame),
+    overlay: impl FnOnce(&mut Image, &SceneFrame),
 ) -> Result<SceneFrame> {
-    let t = Instant::now();
-    scene.update_table(table, camera, opts.light_dir)?;
-    let side = opts.shadow_map_size;
-    if opts.shadows != ShadowMode::Off && out.shadow.len() < side * side {
-        out.shadow.resize(side * side, u16::MAX);
-    }
-    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
-    fb.clear(0);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
+    let model = Model::Scene(scene.clone());
+    let mut layer = match levels {
+        Some(l) => Layers::Tinted(Tinted(l)),
+        None => Layers::Direct,
+    };
+    let mut frame = None;
+    render_from(
+        &model,
+        camera,
+        opts,
         table,
-        kernel: opts.kernel,
-    };
-    let stats = match levels {
-        Some(levels) => {
-            let mut tinted = LevelTint {
-                sink: &mut sink,
-                levels: |object, s: &SampleSplat| levels.of(object, s),
-                object: 0,
+        out,
+        &mut layer,
+        |image, report| {
+            let stats = report.scene.unwrap_or_default();
+            let f = SceneFrame {
+                stats,
+                time: report.time,
+                ram: ram_budget(
+                    scene.pack(),
+                    stats.shadows,
+                    opts.shadow_map_size,
+                    out_viewport(image),
+                ),
             };
-            render_scene(scene, camera, opts, &mut out.shadow, &mut tinted)
-        }
-        None => render_scene(scene, camera, opts, &mut out.shadow, &mut sink),
-    }
-    .map_err(|e| anyhow!("{e}"))?;
-    let frame = SceneFrame {
-        stats,
-        time: t.elapsed(),
-        ram: ram_budget(scene.pack(), stats.shadows, side),
-    };
-    overlay(&mut fb, &frame);
-    Ok(frame)
+            overlay(image, &f);
+            frame = Some(f);
+        },
+    )?;
+    frame.ok_or_else(|| anyhow!("the frame was not drawn"))
+}
+
+/// The size of the frame an overlay draws on.
+fn out_viewport(image: &Image) -> pocketsplat_core::camera::Viewport {
+    image.viewport()
 }
 
 /// Renders one frame of a pack's scene as `settings` say, into `out`.

@@ -11,7 +11,7 @@ use super::file::FileSource;
 use super::http::HttpSource;
 use super::run::{stream_render, stream_render_with, StreamOptions, StreamOutcome};
 use crate::image;
-use crate::render::{FrameBuffers, Settings};
+use crate::render::Settings;
 
 /// The `render --stream` command: `input` is a path or an `http://` URL.
 ///
@@ -26,7 +26,7 @@ pub fn run(
     stats_json: bool,
 ) -> Result<()> {
     let t = Instant::now();
-    let mut fb = FrameBuffers::new();
+    let mut fb = settings.buffers();
     let (outcome, http) = if HttpSource::is_url(input) {
         let mut src = HttpSource::new(input)?;
         // A server that ignores ranges or misses a deadline ends the render with its error.
@@ -47,9 +47,9 @@ pub fn run(
         (o, None)
     };
     if settings.color_by_level {
-        crate::levels::legend_in_corner(&mut fb.framebuffer());
+        crate::levels::legend_in_corner(&mut fb.image);
     }
-    image::write_rgb565_png(out, fb.pixels())?;
+    image::write_image_png(out, &fb.image)?;
     let StreamOutcome {
         frames,
         counters: c,

@@ -3,16 +3,16 @@
 
 use anyhow::{bail, Result};
 use pocketsplat_core::camera::Camera;
-use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::render::{render_stream, StreamPass};
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::splat::{LevelTint, SampleSplat, ShadedRaster, Stats};
+use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
     read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, TgStream,
 };
 use pocketsplat_core::tg::Header;
 
 use crate::levels::Levels;
-use crate::render::{frame_setup, FrameBuffers, Settings, ShadowMode};
+use crate::render::{FrameBuffers, Layers, Settings, ShadowMode, Tinted};
 
 /// Largest block a `.tg` file has.
 const MAX_BLOCK: usize = 1 << 16;
@@ -98,27 +98,7 @@ pub fn stream_frame(
     table: &mut ShadingTable<1>,
     out: &mut FrameBuffers,
 ) -> Result<Stats> {
-    if settings.shadows != ShadowMode::Off {
-        bail!("--stream draws without shadows for now");
-    }
-    let frame = frame_setup(stream.header(), settings, cam, table)?;
-    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
-    fb.clear(0);
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
-        table,
-        kernel: settings.kernel,
-    };
-    if settings.color_by_level {
-        let levels = Levels::of_grid(stream.header().depth);
-        let mut tinted = LevelTint {
-            sink: &mut sink,
-            levels: |object, s: &SampleSplat| levels.of(object, s),
-            object: 0,
-        };
-        return Ok(stream.render(&frame, &mut tinted));
-    }
-    Ok(stream.render(&frame, &mut sink))
+    draw(stream, cam, settings, table, out, StreamPass::Frame)
 }
 
 /// Draws the next pass of a refined frame ([`TgStream::render_pass`]) into `out`, which is cleared
@@ -134,21 +114,39 @@ pub fn stream_pass(
     out: &mut FrameBuffers,
     first: bool,
 ) -> Result<Stats> {
+    let pass = if first {
+        StreamPass::FirstPass
+    } else {
+        StreamPass::NextPass
+    };
+    draw(stream, cam, settings, table, out, pass)
+}
+
+/// A streamed frame or pass through the core's pipeline ([`render_stream`]), tinted by level when
+/// the settings ask.
+fn draw(
+    stream: &mut TgStream<'_>,
+    cam: &Camera,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    pass: StreamPass,
+) -> Result<Stats> {
     if settings.shadows != ShadowMode::Off {
         bail!("--stream draws without shadows for now");
     }
-    let frame = frame_setup(stream.header(), settings, cam, table)?;
-    let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
-    if first {
-        fb.clear(0);
-        stream.begin_refined();
-    }
-    let mut sink = ShadedRaster {
-        fb: &mut fb,
-        table,
-        kernel: settings.kernel,
+    let options = settings.render_options(None);
+    let levels = settings
+        .color_by_level
+        .then(|| Levels::of_grid(stream.header().depth));
+    let mut layer = match &levels {
+        Some(l) => Layers::Tinted(Tinted(l)),
+        None => Layers::Direct,
     };
-    Ok(stream.render_pass(&frame, &mut sink))
+    let mut target = out.target(table, None);
+    let drawn = render_stream(stream, cam, &options, &mut target, pass, &mut layer, |_| {})
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(drawn.stats)
 }
 
 /// How `render --stream` reads.

@@ -9,7 +9,7 @@ use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::splat::Stats;
 
 use super::state::{HudMode, ViewState};
-use crate::render::{FrameReport, ShadowMode, HEIGHT};
+use crate::render::{FrameReport, ShadowMode};
 
 /// The HUD's help lines (FONT_6X10: at most 40 characters across 240 pixels).
 const HUD_HELP: [&str; 3] = [
@@ -29,7 +29,7 @@ pub struct HudInfo<'a> {
     pub cutoff_px: f32,
     /// The session: settings, refinement state, HUD mode.
     pub state: &'a ViewState,
-    /// The scene's [`Scene::label`](super::scene::Scene::label).
+    /// The model's [`Shown::label`](super::scene::Shown::label).
     pub label: &'a str,
 }
 
@@ -103,13 +103,14 @@ pub fn draw_hud<D: DrawTarget<Color = Rgb565>>(
         )
         .draw(target)?;
     }
-    let help_top = HEIGHT as i32 - 1 - HUD_LINE_PX * HUD_HELP.len() as i32;
+    let height = target.bounding_box().size.height as i32;
+    let help_top = height - 1 - HUD_LINE_PX * HUD_HELP.len() as i32;
     if s.color_by_level {
         // The key of the tints, above the help lines when they are shown.
         let bottom = if state.hud == HudMode::Full {
             help_top
         } else {
-            HEIGHT as i32
+            height
         };
         crate::levels::legend(target, 0, bottom - crate::levels::LEGEND_HEIGHT)?;
     }
@@ -153,6 +154,7 @@ mod tests {
                 ..Stats::default()
             },
             time: std::time::Duration::from_millis(3),
+            scene: None,
         };
         let drawn = |s: &ViewState| {
             let mut fb = FrameBuffers::new();
@@ -163,16 +165,11 @@ mod tests {
                 state: s,
                 label: "tri-grid d5",
             };
-            draw_hud(&mut fb.framebuffer(), &info).unwrap();
+            draw_hud(&mut fb.image, &info).unwrap();
             let px = fb.pixels();
-            let top = px[..HEIGHT / 2 * crate::render::WIDTH]
-                .iter()
-                .filter(|&&p| p != 0)
-                .count();
-            let bottom = px[HEIGHT / 2 * crate::render::WIDTH..]
-                .iter()
-                .filter(|&&p| p != 0)
-                .count();
+            let half = crate::render::HEIGHT / 2 * crate::render::WIDTH;
+            let top = px[..half].iter().filter(|&&p| p != 0).count();
+            let bottom = px[half..].iter().filter(|&&p| p != 0).count();
             (top, bottom)
         };
         let (top, bottom) = drawn(&s);

@@ -2,7 +2,7 @@
 //!
 //! The window itself (minifb) is [`Viewer`] (`window`), behind the `window` feature. What needs no
 //! display lives beside it, so it is tested without one: what the command was asked for
-//! (`options`: [`ViewOptions`], [`KEYS_HELP`]), the [`Scene`] a format plugs in as (`scene`), the
+//! (`options`: [`ViewOptions`], [`KEYS_HELP`]), the model it shows ([`Shown`], any format the core opens: `scene`), the
 //! camera and light driven by [`Action`]s (`state`: [`ViewState`]), progressive refinement
 //! (`refine`: [`Refiner`]) and the HUD (`hud`: [`draw_hud`]). The modules depend on each other in
 //! that order only: `window` on all the others, `hud` on `state`, `state` on `options` and
@@ -23,7 +23,7 @@ use anyhow::{bail, Result};
 pub use hud::{draw_hud, HudInfo};
 pub use options::{ViewOptions, KEYS_HELP};
 pub use refine::{Refiner, MAX_CUTOFF_PX};
-pub use scene::{open_scene, PackScene, QsScene, Scene, TgScene};
+pub use scene::Shown;
 pub use state::{panned_camera, Action, Change, HudMode, ViewState, DIST_RANGE, MAX_ELEVATION_DEG};
 #[cfg(feature = "window")]
 pub use window::Viewer;
@@ -43,7 +43,7 @@ pub fn run(input: &Path, opts: &ViewOptions) -> Result<()> {
         }
     }
     let bytes = crate::fsutil::read_file(input)?;
-    let mut scene = open_scene(input, &bytes)?;
+    let mut scene = Shown::open(input, &bytes)?;
     let name = input.file_name().map_or_else(
         || input.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -51,14 +51,14 @@ pub fn run(input: &Path, opts: &ViewOptions) -> Result<()> {
     show(
         &format!("pocketsplat view: {name}"),
         input,
-        scene.as_mut(),
+        &mut scene,
         opts,
     )
 }
 
 #[cfg(feature = "window")]
-fn show(title: &str, input: &Path, scene: &mut dyn Scene, opts: &ViewOptions) -> Result<()> {
-    let viewer = Viewer::open_scaled(title, opts.scale).map_err(|e| {
+fn show(title: &str, input: &Path, scene: &mut Shown<'_>, opts: &ViewOptions) -> Result<()> {
+    let viewer = Viewer::open_scaled(title, opts.scale, opts.settings.size).map_err(|e| {
         let why = match std::env::var_os("DISPLAY") {
             None => "DISPLAY is not set".to_string(),
             Some(d) => format!(
@@ -76,7 +76,7 @@ fn show(title: &str, input: &Path, scene: &mut dyn Scene, opts: &ViewOptions) ->
 }
 
 #[cfg(not(feature = "window"))]
-fn show(_title: &str, input: &Path, _scene: &mut dyn Scene, _opts: &ViewOptions) -> Result<()> {
+fn show(_title: &str, input: &Path, _scene: &mut Shown<'_>, _opts: &ViewOptions) -> Result<()> {
     bail!(
         "built without the `window` feature: pocketsplat view needs a window; use `pocketsplat \
          render {} -o OUT.png`",

@@ -1,185 +1,105 @@
-//! What the viewer draws: a [`Scene`], one per point format (a tri-grid, a QSplat file, a scene
-//! pack), opened by the file's magic ([`open_scene`]).
+//! What the viewer draws: any model the core opens by its magic (a tri-grid, a QSplat file, a
+//! scene pack), through the core's one pipeline ([`crate::render::render_from`]).
 
 use std::path::Path;
 
 use anyhow::{bail, Result};
 use pocketsplat_core::format::FileFormat;
-use pocketsplat_core::qs::QSplat;
-use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::render::Model;
 use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::tg::{TriGrid, Verify};
+use pocketsplat_core::tg::Verify;
 
 use super::state::panned_camera;
-use crate::levels::Levels;
-use crate::qsplat::render_qs_from;
-use crate::render::{render_tg_from, FrameBuffers, FrameReport, Settings, ShadowMode};
-use crate::scene::render::{render_pack_from, scene_table, PackSettings, SceneTable};
+use crate::render::{render_with, FrameBuffers, FrameReport, Image, Settings, ShadowMode};
+use crate::scene::render::{scene_table, SceneTable};
 
-/// Something the viewer can draw: a model in one of the point formats. A new format plugs in by
-/// implementing this and adding a case to [`open_scene`].
-pub trait Scene {
+/// A model in the viewer: the core's [`Model`] and its shading table (kept between frames, so that
+/// it is rebuilt only when the view turns).
+pub struct Shown<'a> {
+    model: Model<'a>,
+    table: Table,
+}
+
+/// A model's table: one material, or a slot per material of a scene.
+enum Table {
+    One(Box<ShadingTable<1>>),
+    Scene(Box<SceneTable>),
+}
+
+impl<'a> Shown<'a> {
+    /// A model to show.
+    pub fn new(model: Model<'a>) -> Self {
+        let table = match model {
+            Model::Scene(_) => Table::Scene(scene_table()),
+            _ => Table::One(Box::new(ShadingTable::new())),
+        };
+        Self { model, table }
+    }
+
+    /// Opens the bytes of a point file, by its magic.
+    ///
+    /// # Errors
+    /// When the bytes are not a format the viewer knows, or the file is damaged; the message names
+    /// `path`.
+    pub fn open(path: &Path, bytes: &'a [u8]) -> Result<Self> {
+        let model = match FileFormat::sniff(bytes) {
+            Some(FileFormat::Pack) => Model::Scene(crate::input::open_pack(path, bytes)?),
+            Some(_) => Model::open_with(bytes, Verify::Full)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+            None => bail!(
+                "{}: not a point file `pocketsplat view` can show (expected a .tg, .qs or .pack \
+                 file; bake a mesh first with `pocketsplat bake MESH -o FILE.tg`)",
+                path.display()
+            ),
+        };
+        Ok(Self::new(model))
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model<'a> {
+        &self.model
+    }
+
     /// A short description for the HUD, ASCII (the HUD font has no other glyphs).
-    fn label(&self) -> String;
+    pub fn label(&self) -> String {
+        match &self.model {
+            Model::TriGrid(grid) => {
+                let h = grid.header();
+                let kind = match h.rho {
+                    2 => "octree".to_string(),
+                    3 => "tri-grid".to_string(),
+                    r => format!("rho {r} grid"),
+                };
+                format!("{kind} d{}", h.depth)
+            }
+            Model::QSplat(file) => format!("QSplat {} points", file.counts().leaves),
+            Model::Scene(scene) => format!("scene, {} objects", scene.len()),
+        }
+    }
 
-    /// Draws one frame into `out` (cleared first) with the orbit centre moved by `pan` (world
-    /// units of the model's bounding-sphere radius), then calls `overlay` on the framebuffer.
+    /// Draws one frame into `out` (cleared first) with the orbit centre moved by `pan` (units of
+    /// the model's bounding-sphere radius), then calls `overlay` on the image. A QSplat file is
+    /// drawn without shadows (it has none), whatever the settings.
     ///
     /// # Errors
     /// When the frame cannot be set up.
-    fn render(
+    pub fn render(
         &mut self,
         settings: &Settings,
         pan: [f64; 3],
         out: &mut FrameBuffers,
-        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
-    ) -> Result<FrameReport>;
-}
-
-/// A tri-grid (or octree) `.tg` file as a [`Scene`].
-pub struct TgScene<'a> {
-    grid: TriGrid<'a>,
-    table: Box<ShadingTable<1>>,
-}
-
-impl<'a> TgScene<'a> {
-    /// Wraps an opened grid.
-    pub fn new(grid: TriGrid<'a>) -> Self {
-        Self {
-            grid,
-            table: Box::new(ShadingTable::<1>::new()),
-        }
-    }
-}
-
-impl Scene for TgScene<'_> {
-    fn label(&self) -> String {
-        let h = self.grid.header();
-        let kind = match h.rho {
-            2 => "octree".to_string(),
-            3 => "tri-grid".to_string(),
-            r => format!("rho {r} grid"),
-        };
-        format!("{kind} d{}", h.depth)
-    }
-
-    fn render(
-        &mut self,
-        settings: &Settings,
-        pan: [f64; 3],
-        out: &mut FrameBuffers,
-        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
+        overlay: &mut dyn FnMut(&mut Image, &FrameReport),
     ) -> Result<FrameReport> {
-        let cam = panned_camera(settings, self.grid.header().bounds64, pan);
-        render_tg_from(&self.grid, settings, &cam, &mut self.table, out, overlay)
-    }
-}
-
-/// A QSplat `.qs` file as a [`Scene`] (no shadows: the QSplat renderer has none).
-pub struct QsScene<'a> {
-    file: QSplat<'a>,
-    table: Box<ShadingTable<1>>,
-}
-
-impl Scene for QsScene<'_> {
-    fn label(&self) -> String {
-        format!("QSplat {} points", self.file.counts().leaves)
-    }
-
-    fn render(
-        &mut self,
-        settings: &Settings,
-        pan: [f64; 3],
-        out: &mut FrameBuffers,
-        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
-    ) -> Result<FrameReport> {
-        let cam = panned_camera(settings, self.file.bounds(), pan);
-        let settings = Settings {
-            shadows: ShadowMode::Off,
-            ..*settings
-        };
-        render_qs_from(&self.file, &settings, &cam, &mut self.table, out, overlay)
-    }
-}
-
-/// A pack as a scene of `pocketsplat view`: the viewer's settings (view, light, cutoff, kernel,
-/// shadows) drive the frame; pans move the orbit centre in units of the scene sphere's radius.
-pub struct PackScene<'a> {
-    scene: pocketsplat_core::scene::Scene<'a>,
-    table: Box<SceneTable>,
-}
-
-impl<'a> PackScene<'a> {
-    /// Wraps an opened scene.
-    pub fn new(scene: pocketsplat_core::scene::Scene<'a>) -> Self {
-        Self {
-            scene,
-            table: scene_table(),
+        let mut settings = *settings;
+        if matches!(self.model, Model::QSplat(_)) {
+            settings.shadows = ShadowMode::Off;
+        }
+        let cam = panned_camera(&settings, self.model.sphere(), pan);
+        match &mut self.table {
+            Table::One(t) => render_with(&self.model, &settings, &cam, t, out, overlay),
+            Table::Scene(t) => render_with(&self.model, &settings, &cam, t, out, overlay),
         }
     }
-}
-
-impl Scene for PackScene<'_> {
-    fn label(&self) -> String {
-        format!("scene, {} objects", self.scene.len())
-    }
-
-    fn render(
-        &mut self,
-        settings: &Settings,
-        pan: [f64; 3],
-        out: &mut FrameBuffers,
-        overlay: &mut dyn FnMut(&mut Framebuffer<'_>, &FrameReport),
-    ) -> Result<FrameReport> {
-        let s = PackSettings::from_settings(settings)?;
-        let cam = s.camera(&self.scene, pan);
-        let levels = settings
-            .color_by_level
-            .then(|| Levels::of_scene(&self.scene));
-        let frame = render_pack_from(
-            &self.scene,
-            &cam,
-            &s.options(&self.scene),
-            levels.as_ref(),
-            &mut self.table,
-            out,
-            |fb, f| overlay(fb, &f.report()),
-        )?;
-        Ok(frame.report())
-    }
-}
-
-/// Opens the bytes of a point file as a [`Scene`], by the file's magic.
-///
-/// # Errors
-/// When the bytes are not a format the viewer knows, or the file is damaged; the message names
-/// `path`.
-pub fn open_scene<'a>(path: &Path, bytes: &'a [u8]) -> Result<Box<dyn Scene + 'a>> {
-    match FileFormat::sniff(bytes) {
-        Some(FileFormat::TriGrid) => {
-            let grid = TriGrid::open(bytes, Verify::Full)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            return Ok(Box::new(TgScene::new(grid)));
-        }
-        Some(FileFormat::Pack) => {
-            let scene = crate::input::open_pack(path, bytes)?;
-            return Ok(Box::new(PackScene::new(scene)));
-        }
-        Some(FileFormat::QSplat) => {
-            let file =
-                QSplat::open(bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            return Ok(Box::new(QsScene {
-                file,
-                table: Box::new(ShadingTable::<1>::new()),
-            }));
-        }
-        None => {}
-    }
-    bail!(
-        "{}: not a point file `pocketsplat view` can show (expected a .tg, .qs or .pack file; bake \
-         a mesh first with `pocketsplat bake MESH -o FILE.tg`)",
-        path.display()
-    )
 }
 
 #[cfg(test)]
@@ -188,7 +108,7 @@ mod tests {
 
     #[test]
     fn unknown_files_are_refused_with_a_hint() {
-        let e = open_scene(Path::new("x.bin"), b"not a point file")
+        let e = Shown::open(Path::new("x.bin"), b"not a point file")
             .err()
             .unwrap()
             .to_string();

@@ -1,4 +1,4 @@
-//! The desktop window (minifb, `window` feature): a [`Scene`] in a 240×320 window scaled ×2,
+//! The desktop window (minifb, `window` feature): a model ([`Shown`]) in a 240×320 window scaled ×2,
 //! driven by the mouse and keys. The bindings are listed in [`KEYS_HELP`]; the state they drive,
 //! the refinement and the HUD are its sibling modules in [`crate::view`], which need no display.
 
@@ -13,10 +13,11 @@ use super::hud::{draw_hud, HudInfo};
 use super::options::ViewOptions;
 #[cfg(doc)]
 use super::options::KEYS_HELP;
-use super::scene::{Scene, TgScene};
+use super::scene::Shown;
 use super::state::{Action, Change, ViewState};
-use crate::image::write_rgb565_png;
-use crate::render::{FrameBuffers, FrameReport, Settings, HEIGHT, WIDTH};
+use crate::image::write_image_png;
+use crate::render::{FrameBuffers, FrameReport, Settings};
+use pocketsplat_core::camera::Viewport;
 
 /// Orbit speed of the arrow keys, degrees per second.
 const ORBIT_KEY_DEG_PER_S: f64 = 90.0;
@@ -39,6 +40,8 @@ pub struct Viewer {
     argb: Vec<u32>,
     /// Mouse position at the last poll, framebuffer pixels.
     mouse: Option<(f32, f32)>,
+    /// The frame's size (`--size`), which the window shows scaled.
+    size: Viewport,
 }
 
 impl Viewer {
@@ -47,23 +50,24 @@ impl Viewer {
     /// # Errors
     /// When there is no display (minifb cannot connect to X11).
     pub fn open(title: &str) -> Result<Self, minifb::Error> {
-        Self::open_scaled(title, 2)
+        Self::open_scaled(title, 2, Viewport::DEFAULT)
     }
 
     /// Opens a 240×320 window scaled by `scale` (1, 2 or 4; anything else is taken as 2).
     ///
     /// # Errors
     /// When there is no display (minifb cannot connect to X11).
-    pub fn open_scaled(title: &str, scale: usize) -> Result<Self, minifb::Error> {
+    pub fn open_scaled(title: &str, scale: usize, size: Viewport) -> Result<Self, minifb::Error> {
         let scale = match scale {
             1 => Scale::X1,
             4 => Scale::X4,
             _ => Scale::X2,
         };
+        let (width, height) = (usize::from(size.width), usize::from(size.height));
         let mut window = Window::new(
             title,
-            WIDTH,
-            HEIGHT,
+            width,
+            height,
             WindowOptions {
                 scale,
                 ..WindowOptions::default()
@@ -72,7 +76,8 @@ impl Viewer {
         window.set_target_fps(UPDATE_HZ);
         Ok(Self {
             window,
-            argb: vec![0; WIDTH * HEIGHT],
+            argb: vec![0; width * height],
+            size,
             mouse: None,
         })
     }
@@ -87,19 +92,20 @@ impl Viewer {
             settings,
             ..ViewOptions::default()
         };
-        self.run_scene(&mut TgScene::new(*grid), &opts)
+        self.run_scene(&mut Shown::new((*grid).into()), &opts)
     }
 
-    /// Shows `scene` until the window is closed, Escape is pressed, or `opts.frames` window
+    /// Shows `scene` (in frames of the window's size, whatever `opts.settings.size` says) until
+    /// the window is closed, Escape is pressed, or `opts.frames` window
     /// updates have passed. Frames are drawn only when something changed or the image is still
     /// being refined; otherwise the loop only polls input, `UPDATE_HZ` times a second.
     ///
     /// # Errors
     /// When a frame cannot be set up, or `opts.screenshot` cannot be written.
-    pub fn run_scene(mut self, scene: &mut dyn Scene, opts: &ViewOptions) -> Result<()> {
+    pub fn run_scene(mut self, scene: &mut Shown<'_>, opts: &ViewOptions) -> Result<()> {
         let label = scene.label();
         let mut state = ViewState::new(opts);
-        let mut frame = FrameBuffers::new();
+        let mut frame = FrameBuffers::sized(self.size);
         let mut updates = 0u64;
         let mut first = true;
         let mut last_poll = Instant::now();
@@ -130,7 +136,7 @@ impl Viewer {
             let Some(cutoff) = cutoff else {
                 if !saved {
                     if let Some(path) = &opts.screenshot {
-                        write_rgb565_png(path, frame.pixels())?;
+                        write_image_png(path, &frame.image)?;
                     }
                     saved = true;
                 }
@@ -170,7 +176,7 @@ impl Viewer {
             saved = false;
         }
         if let Some(path) = &opts.screenshot {
-            write_rgb565_png(path, frame.pixels())?;
+            write_image_png(path, &frame.image)?;
         }
         Ok(())
     }
@@ -181,7 +187,8 @@ impl Viewer {
             let [r, g, b] = rgb565_to_rgb888(p);
             *out = u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b);
         }
-        self.window.update_with_buffer(&self.argb, WIDTH, HEIGHT)?;
+        let (w, h) = (usize::from(self.size.width), usize::from(self.size.height));
+        self.window.update_with_buffer(&self.argb, w, h)?;
         Ok(())
     }
 

@@ -20,10 +20,10 @@
 use std::ops::Range;
 use std::time::Instant;
 
-use pocketsplat_core::camera::{self, Camera, Placement, Vec3, HEIGHT, WIDTH};
+use pocketsplat_core::camera::{self, Camera, Placement, Vec3};
 use pocketsplat_core::fixed::ONE_PX_Q8;
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
-use pocketsplat_core::raster::{Framebuffer, Kernel, Splat};
+use pocketsplat_core::raster::{draw_splat, DepthTarget, Kernel, Splat};
 use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::scene::{slot_attr, slot_bits, Scene};
 use pocketsplat_core::shade::ShadingTable;
@@ -140,14 +140,14 @@ impl LeafCloud {
         out: &mut FrameBuffers,
     ) -> FrameReport {
         let t = Instant::now();
-        let cam = settings.camera(self.bounds);
+        let cam = settings.camera(self.bounds).for_viewport(out.viewport());
         table.update(
             &[settings.material],
             settings.light_dir(),
             camera::scale(cam.forward, -1.0),
         );
         let (z0, z_scale) = self.depth_map(&cam);
-        let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+        let mut fb = out.display();
         fb.clear(0);
         let mut stats = Stats {
             nodes_visited: self.points.len() as u32,
@@ -178,6 +178,7 @@ impl LeafCloud {
         FrameReport {
             stats,
             time: t.elapsed(),
+            scene: None,
         }
     }
 
@@ -290,12 +291,13 @@ impl SceneCloud {
         out: &mut FrameBuffers,
     ) -> FrameReport {
         let t = Instant::now();
+        let camera = &camera.for_viewport(out.viewport());
         scene
             .update_table(table, camera, opts.light_dir)
             .expect("a scene table has MAX_SLOTS slots");
         let range = scene.depth_range(camera);
         let (z0, z_scale) = depth_map(range.near, range.far, camera.near);
-        let mut fb = Framebuffer::new(&mut out.color, &mut out.depth);
+        let mut fb = out.display();
         fb.clear(0);
         let mut stats = Stats {
             nodes_visited: self.points.len() as u32,
@@ -328,6 +330,7 @@ impl SceneCloud {
         FrameReport {
             stats,
             time: t.elapsed(),
+            scene: None,
         }
     }
 }
@@ -371,10 +374,14 @@ impl<const M: usize> BruteFrame<'_, M> {
     /// Projects, culls and splats every point of `run` into `fb`, counting into `stats`
     /// (`culled`, `backfacing`, `splats`; the caller counts `nodes_visited`). The one per-point
     /// loop both clouds draw with.
-    fn draw(&self, run: PointRun<'_>, fb: &mut Framebuffer<'_>, stats: &mut Stats) {
+    fn draw(&self, run: PointRun<'_>, fb: &mut impl DepthTarget, stats: &mut Stats) {
         let cam = self.cam;
         let rot = run.rotation;
-        let (cx, cy) = (WIDTH as f64 / 2.0, HEIGHT as f64 / 2.0);
+        let (cx, cy) = cam.viewport.center();
+        let (w, h) = (
+            f64::from(cam.viewport.width),
+            f64::from(cam.viewport.height),
+        );
         for (p, &attr) in run.points.iter().zip(run.attrs) {
             let d = camera::sub(*p, cam.eye);
             let z = camera::dot(d, cam.forward);
@@ -395,12 +402,13 @@ impl<const M: usize> BruteFrame<'_, M> {
             let sy = cy - camera::dot(d, cam.up) * inv;
             let size_q8 = run.size_k / z;
             let r = size_q8 / (2.0 * ONE_PX) + 1.0;
-            if sx + r < 0.0 || sy + r < 0.0 || sx - r > WIDTH as f64 || sy - r > HEIGHT as f64 {
+            if sx + r < 0.0 || sy + r < 0.0 || sx - r > w || sy - r > h {
                 stats.culled += 1;
                 continue;
             }
             let depth = ((z - self.z0) * self.z_scale).clamp(0.0, 65534.0) as u16;
-            fb.splat(
+            draw_splat(
+                fb,
                 &Splat {
                     x_q8: (sx * ONE_PX).round() as i32,
                     y_q8: (sy * ONE_PX).round() as i32,

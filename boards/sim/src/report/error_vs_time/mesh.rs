@@ -14,10 +14,10 @@ use super::brute::LeafCloud;
 use super::sweep::{FrameConfig, Method, RefShadows, Reference, Subject};
 use crate::bake::bake_mesh;
 use crate::bvh::Bvh;
-use crate::qsplat::render_qs_with;
 use crate::reference::{render_reference_shadowed, ShadowLight, ShadowRays};
-use crate::render::{render_tg_with, FrameBuffers, FrameReport, Settings, ShadowMode};
+use crate::render::{render_with, FrameBuffers, FrameReport, Settings, ShadowMode};
 use crate::scene::bake::depth_near;
+use pocketsplat_core::render::Model;
 
 /// A tri-grid (any ρ the traversal draws) and its renderer, with a shading table kept across frames.
 pub struct TgMethod<'a> {
@@ -79,7 +79,9 @@ impl Method for TgMethod<'_> {
             shadows: cfg.shadows,
             ..Settings::default()
         };
-        render_tg_with(&self.grid, &settings, &mut self.table, out, |_, _| {})
+        let model = Model::TriGrid(self.grid);
+        let cam = settings.camera_for(&model);
+        render_with(&model, &settings, &cam, &mut self.table, out, |_, _| {})
     }
 }
 
@@ -189,7 +191,9 @@ impl Method for QsMethod<'_> {
             kernel: cfg.kernel,
             ..Settings::default()
         };
-        render_qs_with(&self.file, &settings, &mut self.table, out, |_, _| {})
+        let model = Model::QSplat(self.file);
+        let cam = settings.camera_for(&model);
+        render_with(&model, &settings, &cam, &mut self.table, out, |_, _| {})
     }
 }
 

@@ -153,8 +153,8 @@ pub(super) fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Mea
     let stats;
     let measured;
     {
-        let mut framebuffer = fb.framebuffer();
-        framebuffer.clear(0);
+        let mut framebuffer = fb.display();
+        pocketsplat_core::raster::DepthTarget::clear(&mut framebuffer, 0);
         let mut probe = Probe {
             shot,
             model_boxes,
