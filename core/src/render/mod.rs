@@ -26,7 +26,7 @@
 //! let mut table = ShadingTable::<1>::new();
 //!
 //! // A .tg, .qs or .pack file (by its magic), here linked in; from flash, read in place.
-//! let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+//! let model = Model::open(include_bytes!("../../examples/data/trefoil.tg"))?;
 //! let camera = model.orbit(View::new(30.0, 20.0, 2.5)); // the projection follows the panel
 //! let mut target = Target::new(DisplayTarget::new(&mut panel, &mut depth).unwrap(), &mut table);
 //! render(&model, &camera, &RenderOptions::default(), &mut target)?;
@@ -54,317 +54,28 @@
 
 use core::fmt;
 
-use crate::camera::{self, Camera, Sphere, Vec3, View, DEFAULT_FOV_DEG};
+mod model;
+mod options;
+
+pub use model::{Model, ModelError};
+pub use options::{FrameError, RenderOptions, DEFAULT_SHADOW_MAP_SIZE};
+
+use crate::camera::{self, Camera, Vec3};
 use crate::format::FileFormat;
 use crate::raster::{DepthTarget, Kernel};
-use crate::shade::{Material, ShadingTable, ShadowMode, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+use crate::shade::{Material, ShadingTable, ShadowMode};
 use crate::splat::{ColorSink, ShadedRaster, Stats};
 
 #[cfg(feature = "qsplat")]
-use crate::qs::{render_qs_colored, shading_material, QSplat, QsError, QsFrame};
+use crate::qs::{render_qs_colored, QSplat, QsFrame};
 #[cfg(feature = "scene")]
-use crate::scene::{Pack, PackError, Scene, SceneError, SceneStats};
+use crate::scene::{Scene, SceneError, SceneStats};
 #[cfg(feature = "shadows")]
 use crate::shadow::{render_tg_shadowed, LightError, LightFrame, ShadowMap};
 #[cfg(feature = "stream")]
 use crate::stream::TgStream;
 #[cfg(feature = "trigrid")]
-use crate::tg::{render_tg, TgError, TgFrame, TriGrid, Verify};
-
-/// How to draw a frame: the level of detail, the splats, the light and the shadows.
-///
-/// One set of options for every format and for scenes: a format or a build reads what it uses
-/// (QSplat files have no shadows; a scene pack brings its own materials, [`Model::options`] its
-/// light).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderOptions {
-    /// Stop descending where a cell's projected diameter is at most this many pixels (the LOD
-    /// cutoff; 1 px is full detail on screen).
-    pub cutoff_px: f32,
-    /// Splat shape.
-    pub kernel: Kernel,
-    /// Skip samples (and, with normal cones, subtrees) whose normals face away from every ray.
-    pub backface_culling: bool,
-    /// Shadow algorithm (tri-grids and scenes of tri-grids, with the `shadows` feature).
-    pub shadows: ShadowMode,
-    /// Unit direction towards the light, world frame: the shading's light, and a directional
-    /// light's shadows.
-    pub light_dir: Vec3,
-    /// A point light's position instead, world units: shadows from it are two-pass (Duguet §5.3
-    /// needs a directional light for one pass); shading still uses [`RenderOptions::light_dir`].
-    pub light_position: Option<Vec3>,
-    /// Side of the shadow map, texels.
-    pub shadow_map_size: usize,
-    /// The material every sample is shaded with (a coloured QSplat file's in white, modulated by
-    /// its colours; a scene pack's objects bring their own).
-    pub material: Material,
-    /// The colour the frame is cleared to, RGB565.
-    pub background: u16,
-}
-
-/// The shadow map side of [`RenderOptions::default`]: 256² texels (128 KB), about one texel per 3
-/// leaf cells of a depth-6 tri-grid.
-pub const DEFAULT_SHADOW_MAP_SIZE: usize = 256;
-
-impl Default for RenderOptions {
-    /// A 1 px cutoff, square splats, backface culling, no shadows, the default light and
-    /// material, a black background.
-    fn default() -> Self {
-        Self {
-            cutoff_px: 1.0,
-            kernel: Kernel::Square,
-            backface_culling: true,
-            shadows: ShadowMode::Off,
-            light_dir: camera::direction(DEFAULT_LIGHT_AZ_EL.0, DEFAULT_LIGHT_AZ_EL.1),
-            light_position: None,
-            shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
-            material: DEFAULT_MATERIAL,
-            background: 0,
-        }
-    }
-}
-
-impl RenderOptions {
-    /// These options at `cutoff_px`.
-    pub fn with_cutoff(self, cutoff_px: f32) -> Self {
-        Self { cutoff_px, ..self }
-    }
-}
-
-/// Why a format's per-frame tables cannot be set up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FrameError {
-    /// The tri-grid traversal draws ρ = 2 and 3 only (4 and 5 are for the storage comparison).
-    UnsupportedRho(u8),
-    /// The camera or placement has non-finite numbers, a focal length or scale that is not
-    /// positive, an empty viewport, or a cutoff that is not finite and positive.
-    BadCamera,
-}
-
-impl core::error::Error for FrameError {}
-
-impl fmt::Display for FrameError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            FrameError::UnsupportedRho(r) => write!(f, "rendering supports rho 2 and 3, not {r}"),
-            FrameError::BadCamera => {
-                write!(f, "camera, placement or cutoff is not finite and positive")
-            }
-        }
-    }
-}
-
-/// A validated, memory-resident model of any format this build reads: what [`render`] draws.
-// Unboxed: there is no heap, and a firmware holds one model (a tri-grid's header and level
-// directory are its largest part, about 300 bytes; a scene's opened objects ~2 KB).
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug)]
-pub enum Model<'a> {
-    /// A tri-grid (`.tg`).
-    #[cfg(feature = "trigrid")]
-    TriGrid(TriGrid<'a>),
-    /// A QSplat 1.0 file (`.qs`).
-    #[cfg(feature = "qsplat")]
-    QSplat(QSplat<'a>),
-    /// A scene pack (`.pack`) with its objects opened.
-    #[cfg(feature = "scene")]
-    Scene(Scene<'a>),
-    /// No format at all: a build with none of the format features (never constructed).
-    #[doc(hidden)]
-    #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-    None(core::marker::PhantomData<&'a ()>, core::convert::Infallible),
-}
-
-/// Why a file cannot be opened as a [`Model`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModelError {
-    /// The first bytes are no format's magic.
-    UnknownFormat,
-    /// A format this build leaves out (its cargo feature is off).
-    NotBuilt(FileFormat),
-    /// Not a valid tri-grid.
-    #[cfg(feature = "trigrid")]
-    TriGrid(TgError),
-    /// Not a valid QSplat file.
-    #[cfg(feature = "qsplat")]
-    QSplat(QsError),
-    /// Not a valid scene pack.
-    #[cfg(feature = "scene")]
-    Pack(PackError),
-    /// A scene pack one of whose objects is not valid or cannot be drawn.
-    #[cfg(feature = "scene")]
-    Scene(SceneError),
-}
-
-impl core::error::Error for ModelError {}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::UnknownFormat => {
-                write!(
-                    f,
-                    "not a tri-grid, QSplat file or scene pack (unknown magic)"
-                )
-            }
-            ModelError::NotBuilt(format) => write!(
-                f,
-                "a {} file: this build leaves its format out (cargo feature `{}`)",
-                format.name(),
-                format.feature()
-            ),
-            #[cfg(feature = "trigrid")]
-            ModelError::TriGrid(e) => write!(f, "tri-grid: {e}"),
-            #[cfg(feature = "qsplat")]
-            ModelError::QSplat(e) => write!(f, "QSplat: {e}"),
-            #[cfg(feature = "scene")]
-            ModelError::Pack(e) => write!(f, "scene pack: {e}"),
-            #[cfg(feature = "scene")]
-            ModelError::Scene(e) => write!(f, "scene pack: {e}"),
-        }
-    }
-}
-
-impl<'a> Model<'a> {
-    /// Opens `bytes` in the format its magic names ([`FileFormat::sniff`]), checking it whole.
-    ///
-    /// # Errors
-    /// [`ModelError`]: an unknown magic, a format this build leaves out, or a damaged file.
-    pub fn open(bytes: &'a [u8]) -> Result<Self, ModelError> {
-        #[cfg(feature = "trigrid")]
-        return Self::open_with(bytes, Verify::Full);
-        #[cfg(not(feature = "trigrid"))]
-        Self::open_any(bytes)
-    }
-
-    /// [`Model::open`] with `verify` saying how much of a tri-grid (or a pack's) to check: a
-    /// firmware may trust the flash it was written to ([`Verify::Structure`]).
-    ///
-    /// # Errors
-    /// As [`Model::open`].
-    #[cfg(feature = "trigrid")]
-    pub fn open_with(bytes: &'a [u8], verify: Verify) -> Result<Self, ModelError> {
-        match FileFormat::sniff(bytes) {
-            Some(FileFormat::TriGrid) => TriGrid::open(bytes, verify)
-                .map(Model::TriGrid)
-                .map_err(ModelError::TriGrid),
-            #[cfg(feature = "scene")]
-            Some(FileFormat::Pack) => {
-                let pack = Pack::open(bytes).map_err(ModelError::Pack)?;
-                Scene::open(pack, verify)
-                    .map(Model::Scene)
-                    .map_err(ModelError::Scene)
-            }
-            _ => Self::open_any(bytes),
-        }
-    }
-
-    /// The formats that need no [`Verify`] (QSplat is always checked whole), and the refusals.
-    fn open_any(bytes: &'a [u8]) -> Result<Self, ModelError> {
-        match FileFormat::sniff(bytes) {
-            #[cfg(feature = "qsplat")]
-            Some(FileFormat::QSplat) => QSplat::open(bytes)
-                .map(Model::QSplat)
-                .map_err(ModelError::QSplat),
-            Some(format) => Err(ModelError::NotBuilt(format)),
-            None => Err(ModelError::UnknownFormat),
-        }
-    }
-
-    /// The model's format.
-    pub fn format(&self) -> FileFormat {
-        match self {
-            #[cfg(feature = "trigrid")]
-            Model::TriGrid(_) => FileFormat::TriGrid,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(_) => FileFormat::QSplat,
-            #[cfg(feature = "scene")]
-            Model::Scene(_) => FileFormat::Pack,
-            #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-            Model::None(_, never) => match *never {},
-        }
-    }
-
-    /// The sphere the views orbit: around the model's bounding box (a tri-grid's precise box when
-    /// it has one), or a scene's.
-    pub fn sphere(&self) -> Sphere {
-        match self {
-            #[cfg(feature = "trigrid")]
-            Model::TriGrid(grid) => Sphere::from_bounds_f64(grid.header().bounds64),
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => Sphere::from_bounds(file.bounds()),
-            #[cfg(feature = "scene")]
-            Model::Scene(scene) => scene.sphere(),
-            #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-            Model::None(_, never) => match *never {},
-        }
-    }
-
-    /// The orbit camera of `view` about [`Model::sphere`]: the default 45° field of view (a
-    /// scene's own), for the reference 240 × 320 image ([`render`] fits it to the target).
-    pub fn orbit(&self, view: View) -> Camera {
-        #[cfg(feature = "scene")]
-        if let Model::Scene(scene) = self {
-            return scene.camera(view);
-        }
-        Camera::orbit(self.sphere(), view, DEFAULT_FOV_DEG)
-    }
-
-    /// The material the shading table gives samples drawn with `base`: `base`, in white for a
-    /// coloured QSplat file (whose colours then modulate it; a scene's objects bring their own).
-    pub fn material(&self, base: Material) -> Material {
-        match self {
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => shading_material(file, base),
-            _ => base,
-        }
-    }
-
-    /// The options a model is drawn with by default: [`RenderOptions::default`], or a scene
-    /// pack's light, shadows and shadow map size.
-    pub fn options(&self) -> RenderOptions {
-        #[cfg(feature = "scene")]
-        if let Model::Scene(scene) = self {
-            return scene.options();
-        }
-        RenderOptions::default()
-    }
-
-    /// The shadow modes [`render`] draws this model in, in this build: all three for a tri-grid or
-    /// a scene with the `shadows` feature, [`ShadowMode::Off`] otherwise (QSplat files have no
-    /// shadows).
-    pub fn shadow_modes(&self) -> &'static [ShadowMode] {
-        let shadowed = matches!(self.format(), FileFormat::TriGrid | FileFormat::Pack);
-        if shadowed && cfg!(feature = "shadows") {
-            &ShadowMode::ALL
-        } else {
-            &[ShadowMode::Off]
-        }
-    }
-}
-
-#[cfg(feature = "trigrid")]
-impl<'a> From<TriGrid<'a>> for Model<'a> {
-    fn from(grid: TriGrid<'a>) -> Self {
-        Model::TriGrid(grid)
-    }
-}
-
-#[cfg(feature = "qsplat")]
-impl<'a> From<QSplat<'a>> for Model<'a> {
-    fn from(file: QSplat<'a>) -> Self {
-        Model::QSplat(file)
-    }
-}
-
-#[cfg(feature = "scene")]
-impl<'a> From<Scene<'a>> for Model<'a> {
-    fn from(scene: Scene<'a>) -> Self {
-        Model::Scene(scene)
-    }
-}
+use crate::tg::{render_tg, TgFrame, TriGrid};
 
 /// Where [`render`] draws: pixels with a depth test, the shading table (kept between frames, so
 /// that it is rebuilt only when the view or light turns: `M` material slots, 1 for a model, a
@@ -396,7 +107,7 @@ impl<'a> From<Scene<'a>> for Model<'a> {
 /// // Statics on a device; boxes here.
 /// let (mut color, mut depth) = (Box::new([[0u16; 320]; 240]), Box::new([[0u16; 320]; 240]));
 /// let mut table = ShadingTable::<1>::new();
-/// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+/// let model = Model::open(include_bytes!("../../examples/data/trefoil.tg"))?;
 ///
 /// let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
 /// let options = RenderOptions { cutoff_px: 2.0, ..RenderOptions::default() };
@@ -455,7 +166,7 @@ impl<'t, P: DepthTarget, const M: usize> Target<'t, P, M> {
     /// let mut depth = vec![0u16; 160 * 128];
     /// let (mut map, mut light) = (vec![0u16; 128 * 128], Box::new(LightFrame::UNSET));
     /// let mut table = ShadingTable::<1>::new();
-    /// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+    /// let model = Model::open(include_bytes!("../../examples/data/trefoil.tg"))?;
     ///
     /// let pixels = DisplayTarget::new(&mut tft, &mut depth).expect("a depth per pixel");
     /// let mut target = Target::new(pixels, &mut table).with_shadows(&mut map, &mut light);
@@ -746,7 +457,7 @@ impl Pass<'_, '_> {
 ///
 /// let (mut panel, mut depth) = (Panel(0), vec![0u16; 128 * 160]);
 /// let mut table = ShadingTable::<1>::new();
-/// let model = Model::open(include_bytes!("../examples/data/trefoil.tg"))?;
+/// let model = Model::open(include_bytes!("../../examples/data/trefoil.tg"))?;
 /// let mut target = Target::new(DisplayTarget::new(&mut panel, &mut depth).unwrap(), &mut table);
 /// let mut per_level = PerLevel([0; 16]);
 /// let mut phases = Vec::new();
@@ -1141,175 +852,4 @@ fn run_into<P: DepthTarget, L: Layer, const M: usize>(
 }
 
 #[cfg(all(test, feature = "trigrid"))]
-mod tests {
-    use super::*;
-    use crate::raster::{DisplayTarget, Framebuffer};
-    use embedded_graphics_core::pixelcolor::raw::RawU16;
-    use embedded_graphics_core::prelude::*;
-    extern crate std;
-    use std::boxed::Box;
-    use std::vec;
-    use std::vec::Vec;
-
-    const EXAMPLE: &[u8] = include_bytes!("../examples/data/trefoil.tg");
-
-    /// A display of `W` × `H` that keeps its pixels.
-    struct Image<const W: usize, const H: usize>(Vec<u16>);
-
-    impl<const W: usize, const H: usize> OriginDimensions for Image<W, H> {
-        fn size(&self) -> Size {
-            Size::new(W as u32, H as u32)
-        }
-    }
-
-    impl<const W: usize, const H: usize> DrawTarget for Image<W, H> {
-        type Color = Rgb565;
-        type Error = core::convert::Infallible;
-        fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(
-            &mut self,
-            pixels: I,
-        ) -> Result<(), Self::Error> {
-            for Pixel(p, c) in pixels {
-                self.0[p.y as usize * W + p.x as usize] = RawU16::from(c).into_inner();
-            }
-            Ok(())
-        }
-    }
-
-    use embedded_graphics_core::pixelcolor::Rgb565;
-
-    /// The frame of the example model at `view` in a `W` × `H` framebuffer and through a display.
-    fn both<const W: usize, const H: usize>(
-        view: View,
-        options: &RenderOptions,
-    ) -> (Vec<u16>, Vec<u16>) {
-        let model = Model::open(EXAMPLE).unwrap();
-        let camera = model.orbit(view);
-        let mut table = Box::new(ShadingTable::<1>::new());
-        let (mut color, mut depth) = (Box::new([[0u16; W]; H]), Box::new([[0u16; W]; H]));
-        let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
-        render(&model, &camera, options, &mut target).unwrap();
-        let mut image = Image::<W, H>(vec![0; W * H]);
-        let mut depth = vec![0u16; W * H];
-        let mut target = Target::new(
-            DisplayTarget::new(&mut image, &mut depth).unwrap(),
-            &mut table,
-        );
-        render(&model, &camera, options, &mut target).unwrap();
-        (color.as_flattened().to_vec(), image.0)
-    }
-
-    #[test]
-    fn a_display_and_a_framebuffer_get_the_same_pixels_at_any_size() {
-        let options = RenderOptions::default();
-        for view in [View::new(30.0, 20.0, 2.5), View::new(-100.0, -40.0, 0.9)] {
-            let (fb, display) = both::<240, 320>(view, &options);
-            assert_eq!(fb, display);
-            assert!(fb.iter().filter(|&&p| p != 0).count() > 5000);
-            let (fb, display) = both::<128, 160>(view, &options);
-            assert_eq!(fb, display);
-            let (fb, display) = both::<320, 240>(
-                view,
-                &RenderOptions {
-                    cutoff_px: 3.0,
-                    ..options
-                },
-            );
-            assert_eq!(fb, display);
-        }
-    }
-
-    /// The projection follows the target: the same camera framed for a landscape image keeps its
-    /// vertical field of view, so the model is as tall in pixels as the image is high, relatively.
-    #[test]
-    fn the_projection_follows_the_target_size() {
-        let rows_covered = |pixels: &[u16], w: usize| -> (usize, usize) {
-            let rows: Vec<usize> = pixels
-                .chunks(w)
-                .enumerate()
-                .filter(|(_, r)| r.iter().any(|&p| p != 0))
-                .map(|(y, _)| y)
-                .collect();
-            (rows[0], *rows.last().unwrap())
-        };
-        let view = View::new(0.0, 0.0, 3.0);
-        let (portrait, _) = both::<240, 320>(view, &RenderOptions::default());
-        let (half, _) = both::<120, 160>(view, &RenderOptions::default());
-        let (landscape, _) = both::<320, 240>(view, &RenderOptions::default());
-        let (p0, p1) = rows_covered(&portrait, 240);
-        let (h0, h1) = rows_covered(&half, 120);
-        let (l0, l1) = rows_covered(&landscape, 320);
-        // Each edge's distance from the image's centre row scales with the height (within a
-        // pixel of rounding at the smaller size): half at 160 rows, three quarters at 240.
-        let from_centre = |y: usize, h: usize| 2 * y as i64 - h as i64;
-        for (p, h, l) in [(p0, h0, l0), (p1, h1, l1)] {
-            let (p, h, l) = (
-                from_centre(p, 320),
-                from_centre(h, 160),
-                from_centre(l, 240),
-            );
-            assert!((2 * h - p).abs() <= 4, "{p} vs {h} at half the height");
-            assert!((4 * l - 3 * p).abs() <= 8, "{p} vs {l} at 240 rows");
-        }
-    }
-
-    #[test]
-    fn open_names_what_is_wrong() {
-        assert_eq!(
-            Model::open(b"ply\nformat ascii 1.0\n").unwrap_err(),
-            ModelError::UnknownFormat
-        );
-        assert_eq!(Model::open(b"").unwrap_err(), ModelError::UnknownFormat);
-        let mut tg = EXAMPLE.to_vec();
-        tg[100] ^= 1;
-        assert!(matches!(Model::open(&tg), Err(ModelError::TriGrid(_))));
-        let mut qs = [0u8; 64];
-        qs[..8].copy_from_slice(b"QSplat11");
-        let err = Model::open(&qs).unwrap_err();
-        #[cfg(feature = "qsplat")]
-        assert!(matches!(err, ModelError::QSplat(_)), "{err:?}");
-        #[cfg(not(feature = "qsplat"))]
-        assert_eq!(err, ModelError::NotBuilt(FileFormat::QSplat));
-        let pack = *b"PSPK\x01\x00\x00\x00";
-        let err = Model::open(&pack).unwrap_err();
-        #[cfg(feature = "scene")]
-        assert!(matches!(err, ModelError::Pack(_)), "{err:?}");
-        #[cfg(not(feature = "scene"))]
-        assert_eq!(err, ModelError::NotBuilt(FileFormat::Pack));
-        assert!(!err.to_string().is_empty());
-        let model = Model::open(EXAMPLE).unwrap();
-        assert_eq!(model.format(), FileFormat::TriGrid);
-        assert_eq!(
-            model.shadow_modes().len(),
-            if cfg!(feature = "shadows") { 3 } else { 1 }
-        );
-    }
-
-    #[test]
-    fn shadows_need_a_map_and_a_bad_cutoff_is_an_error() {
-        let model = Model::open(EXAMPLE).unwrap();
-        let camera = model.orbit(View::new(30.0, 20.0, 2.5));
-        let mut table = Box::new(ShadingTable::<1>::new());
-        let (mut color, mut depth) = (Box::new([[0u16; 96]; 64]), Box::new([[0u16; 96]; 64]));
-        let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
-        let shadowed = RenderOptions {
-            shadows: ShadowMode::OnePass,
-            ..RenderOptions::default()
-        };
-        assert_eq!(
-            render(&model, &camera, &shadowed, &mut target).unwrap_err(),
-            RenderError::NoShadows(FileFormat::TriGrid, ShadowMode::OnePass)
-        );
-        for cutoff_px in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            let bad = RenderOptions::default().with_cutoff(cutoff_px);
-            assert_eq!(
-                render(&model, &camera, &bad, &mut target).unwrap_err(),
-                RenderError::Frame(FrameError::BadCamera),
-                "{cutoff_px}"
-            );
-        }
-        // 96 × 64, the smallest panel the project names, draws.
-        render(&model, &camera, &RenderOptions::default(), &mut target).unwrap();
-        assert!(color.as_flattened().iter().any(|&p| p != 0));
-    }
-}
+mod tests;
