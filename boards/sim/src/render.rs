@@ -1,5 +1,5 @@
 //! Rendering point files on the desktop through the core's one pipeline, the firmware's code
-//! ([`pocketsplat_core::render`]): every format, every size, into [`FrameBuffers`].
+//! ([`pocketsplat_core::render`](mod@pocketsplat_core::render)): every format, every size, into [`FrameBuffers`].
 //!
 //! The frame is an [`Image`] of any size (an embedded-graphics display, which the core draws into
 //! through a [`DisplayTarget`] with the depth buffer beside it, as a user's display), so that
