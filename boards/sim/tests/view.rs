@@ -5,6 +5,7 @@
 
 mod common;
 use common::pocketsplat;
+use common::under_ci;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -19,10 +20,6 @@ fn trefoil_tg(dir: &Path) -> PathBuf {
     let path = dir.join("trefoil.tg");
     std::fs::write(&path, bytes).unwrap();
     path
-}
-
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
 }
 
 /// `program` on the PATH, or `None` with a note (a failure under CI, where nothing may be skipped).
