@@ -148,10 +148,9 @@ pub fn legend<D: DrawTarget<Color = Rgb565>>(
 }
 
 /// [`legend`] in the bottom-left corner of a frame.
-pub fn legend_in_corner(image: &mut crate::render::Image) {
-    let y = i32::from(image.viewport().height) - LEGEND_HEIGHT;
-    // The image draws infallibly.
-    let _ = legend(image, 0, y);
+pub fn legend_in_corner<D: DrawTarget<Color = Rgb565>>(image: &mut D) -> Result<(), D::Error> {
+    let y = image.bounding_box().size.height as i32 - LEGEND_HEIGHT;
+    legend(image, 0, y)
 }
 
 #[cfg(test)]

@@ -333,6 +333,14 @@ impl ModelBounds for Sphere {
     }
 }
 
+/// The shading table the simulator uses for every scene (8 slots, the most a pack has).
+pub type SceneTable = ShadingTable<{ pocketsplat_core::scene::MAX_SLOTS }>;
+
+/// A fresh, boxed scene shading table (148 KB: too big for a test thread's stack).
+pub fn scene_table() -> Box<SceneTable> {
+    Box::new(SceneTable::new())
+}
+
 /// Statistics of a rendered frame.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameReport {
@@ -469,7 +477,7 @@ pub fn render_frame(
     let cam = settings.camera_for(model);
     match model {
         Model::Scene(_) => {
-            let mut table = crate::scene::render::scene_table();
+            let mut table = scene_table();
             render_with(model, settings, &cam, &mut table, out, |_, _| {})
         }
         _ => {

@@ -68,7 +68,8 @@ pub fn render_file(input: &Path, out: &Path, settings: &Settings) -> Result<Snap
 /// tinted by level.
 fn write_frame(out: &Path, fb: &mut FrameBuffers, color_by_level: bool) -> Result<()> {
     if color_by_level {
-        crate::levels::legend_in_corner(&mut fb.image);
+        // The image draws infallibly.
+        let _ = crate::levels::legend_in_corner(&mut fb.image);
     }
     image::write_image_png(out, &fb.image)
 }

@@ -9,20 +9,13 @@ use anyhow::{anyhow, bail, Result};
 use pocketsplat_core::camera::{self, Camera, Sphere, View};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::render::{Model, RenderOptions};
-use pocketsplat_core::scene::{ram_budget, RamBudget, Scene, SceneStats, ShadowMode, MAX_SLOTS};
-use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::scene::{ram_budget, RamBudget, Scene, SceneStats, ShadowMode};
 use pocketsplat_core::splat::Stats;
 
 use crate::levels::Levels;
 use crate::render::{render_from, FrameBuffers, FrameReport, Image, Layers, Settings, Tinted};
 
-/// The shading table the simulator uses for every scene (8 slots, the most a pack has).
-pub type SceneTable = ShadingTable<MAX_SLOTS>;
-
-/// A fresh, boxed scene shading table (148 KB: too big for a test thread's stack).
-pub fn scene_table() -> Box<SceneTable> {
-    Box::new(SceneTable::new())
-}
+pub use crate::render::{scene_table, SceneTable};
 
 /// What a frame of a scene did.
 #[derive(Clone, Copy, Debug)]

@@ -47,7 +47,8 @@ pub fn run(
         (o, None)
     };
     if settings.color_by_level {
-        crate::levels::legend_in_corner(&mut fb.image);
+        // The image draws infallibly.
+        let _ = crate::levels::legend_in_corner(&mut fb.image);
     }
     image::write_image_png(out, &fb.image)?;
     let StreamOutcome {
