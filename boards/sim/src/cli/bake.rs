@@ -91,7 +91,7 @@ pub fn run(args: &BakeArgs) -> Result<()> {
 /// `pocketsplat bake scene.toml -o scene.pack`.
 fn bake_scene_file(scene_path: &Path, out: &Path, force: bool) -> Result<()> {
     let t = Instant::now();
-    let s = scene::Scene::load(scene_path)?;
+    let s = scene::SceneSpec::load(scene_path)?;
     let overrides = BakeOverrides {
         force,
         ..BakeOverrides::default()

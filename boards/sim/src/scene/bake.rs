@@ -31,7 +31,7 @@ use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
-use super::{rotation, Anchor, Scene, Source};
+use super::{rotation, Anchor, SceneSpec, Source};
 use crate::ply;
 
 /// Changes to a scene's `[bake]` settings, for reports that bake one scene several ways.
@@ -127,7 +127,7 @@ pub fn placed_box(p: &Placement, b: [[f32; 3]; 2]) -> [Vec3; 2] {
 /// # Errors
 /// A file that cannot be read, a mesh that cannot be imported, a `.tg` file that fails its checks,
 /// or materials that do not match the mesh; each names the object.
-pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
+pub fn load_objects(scene: &SceneSpec) -> Result<Vec<LoadedObject>> {
     let mut out = Vec::new();
     for ((o, source), names) in scene
         .file
@@ -254,7 +254,7 @@ pub fn load_objects(scene: &Scene) -> Result<Vec<LoadedObject>> {
 ///
 /// # Errors
 /// When no object is in bounds.
-pub fn scene_sphere(scene: &Scene, objects: &[LoadedObject]) -> Result<Sphere> {
+pub fn scene_sphere(scene: &SceneSpec, objects: &[LoadedObject]) -> Result<Sphere> {
     let mut all = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
     for (o, l) in scene.file.objects.iter().zip(objects) {
         if !o.in_bounds {
@@ -283,7 +283,7 @@ pub fn scene_sphere(scene: &Scene, objects: &[LoadedObject]) -> Result<Sphere> {
 
 /// The cameras a scene can be seen from: its named views and samples of its camera path (16 per
 /// segment and every keyframe).
-pub fn scene_cameras(scene: &Scene, sphere: Sphere) -> Vec<Camera> {
+pub fn scene_cameras(scene: &SceneSpec, sphere: Sphere) -> Vec<Camera> {
     let mut views: Vec<View> = scene.views().into_iter().map(|(_, v)| v).collect();
     let keys = &scene.file.path;
     for (k, p) in keys.iter().enumerate() {
@@ -386,7 +386,7 @@ fn strip_colors(grid: &mut BakedGrid) -> bool {
 /// # Errors
 /// Anything [`load_objects`] finds, bake and layout errors, more than 8 material slots; each names
 /// the scene and the object.
-pub fn bake_scene(scene: &Scene, overrides: &BakeOverrides) -> Result<BakedScene> {
+pub fn bake_scene(scene: &SceneSpec, overrides: &BakeOverrides) -> Result<BakedScene> {
     let objects = load_objects(scene)?;
     bake_loaded(scene, &objects, overrides)
 }
@@ -396,7 +396,7 @@ pub fn bake_scene(scene: &Scene, overrides: &BakeOverrides) -> Result<BakedScene
 /// # Errors
 /// As [`bake_scene`].
 pub fn bake_loaded(
-    scene: &Scene,
+    scene: &SceneSpec,
     objects: &[LoadedObject],
     overrides: &BakeOverrides,
 ) -> Result<BakedScene> {
@@ -644,7 +644,7 @@ pub fn bake_loaded(
 /// # Errors
 /// When an object is a `.tg` file (there is no mesh to draw).
 pub fn world_mesh(
-    scene: &Scene,
+    scene: &SceneSpec,
     objects: &[LoadedObject],
     baked: &BakedScene,
     casters_only: bool,
@@ -688,7 +688,7 @@ pub fn world_mesh(
 /// Reads, checks and bakes `path`.
 ///
 /// # Errors
-/// As [`Scene::load`] and [`bake_scene`].
+/// As [`SceneSpec::load`] and [`bake_scene`].
 pub fn bake_path(path: &Path, overrides: &BakeOverrides) -> Result<BakedScene> {
-    bake_scene(&Scene::load(path)?, overrides)
+    bake_scene(&SceneSpec::load(path)?, overrides)
 }

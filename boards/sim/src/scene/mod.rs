@@ -370,7 +370,7 @@ pub enum Source {
 
 /// A scene file read and checked: every reference resolved, every number in range.
 #[derive(Clone, Debug)]
-pub struct Scene {
+pub struct SceneSpec {
     /// The file it came from.
     pub path: PathBuf,
     /// What it says.
@@ -433,7 +433,7 @@ fn models_dir(scene_dir: &Path, models: Option<&str>) -> Option<PathBuf> {
     models.map(|m| scene_dir.join(m))
 }
 
-impl Scene {
+impl SceneSpec {
     /// Reads and checks a scene file.
     ///
     /// # Errors
@@ -447,7 +447,7 @@ impl Scene {
     /// Checks a scene file's text; `path` names it and anchors its relative paths.
     ///
     /// # Errors
-    /// As [`Scene::load`].
+    /// As [`SceneSpec::load`].
     pub fn parse(path: &Path, text: &str) -> Result<Self> {
         let file: SceneFile =
             toml::from_str(text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -647,7 +647,7 @@ impl Scene {
                 )));
             }
         }
-        Ok(Scene {
+        Ok(SceneSpec {
             path: path.to_path_buf(),
             file,
             sources,

@@ -614,7 +614,7 @@ anchor = "center"
 
     fn small_pack() -> Vec<u8> {
         let scene =
-            crate::scene::Scene::parse(std::path::Path::new("small.toml"), SCENE_TOML).unwrap();
+            crate::scene::SceneSpec::parse(std::path::Path::new("small.toml"), SCENE_TOML).unwrap();
         crate::scene::bake::bake_scene(&scene, &Default::default())
             .unwrap()
             .bytes

@@ -22,7 +22,7 @@ use crate::reference::{render_reference_shadowed, ShadowLight, ShadowRays};
 use crate::render::{FrameBuffers, FrameReport};
 use crate::scene::bake::{bake_loaded, load_objects, world_mesh, BakeOverrides, BakedScene};
 use crate::scene::render::{render_pack_from, scene_table, PackSettings, SceneTable};
-use crate::scene::Scene;
+use crate::scene::SceneSpec;
 
 /// Cutoffs of the full sweep of a scene, pixels: finer steps than a mesh's between 1 and 8 px,
 /// where a scene's frame cost falls fastest, and every cutoff the firmware renders a pack at.
@@ -53,7 +53,7 @@ impl SceneBakes {
     /// # Errors
     /// Load and bake errors, naming the scene and object; an object given as a `.tg` file (no mesh
     /// for the reference).
-    pub fn bake(scene: &Scene, max_depth: Option<u8>) -> Result<Self> {
+    pub fn bake(scene: &SceneSpec, max_depth: Option<u8>) -> Result<Self> {
         let objects = load_objects(scene)?;
         let over = |rho| BakeOverrides {
             rho: Some(rho),
@@ -265,8 +265,8 @@ pub fn scene_subject<'a>(name: &str, bakes: &'a SceneBakes) -> Result<Subject<'a
 /// Reads and bakes a scene file for the report.
 ///
 /// # Errors
-/// As [`Scene::load`] and [`SceneBakes::bake`], naming the file.
+/// As [`SceneSpec::load`] and [`SceneBakes::bake`], naming the file.
 pub fn bake_scene_file(path: &std::path::Path, max_depth: Option<u8>) -> Result<SceneBakes> {
-    let scene = Scene::load(path)?;
+    let scene = SceneSpec::load(path)?;
     SceneBakes::bake(&scene, max_depth).with_context(|| format!("{}: bake", path.display()))
 }
