@@ -645,7 +645,8 @@ fn scene_frame<P: DepthTarget, L: Layer, const M: usize>(
     };
     let (pixels, table) = (&mut target.pixels, &*target.table);
     clear_and_run(pixels, table, options, Pass { kind: pass }, layer, mark);
-    let stats = stats.expect("the scene pass ran")?;
+    // A layer that never ran the pass drew nothing: empty counts.
+    let stats = stats.unwrap_or(Ok(SceneStats::default()))?;
     Ok(Drawn {
         stats: stats.total,
         table_rebuilt,
