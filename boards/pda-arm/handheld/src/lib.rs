@@ -41,7 +41,6 @@ use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
 use pocketsplat_core::camera::{View, STANDARD_VIEWS};
-use pocketsplat_pda::{HEIGHT, WIDTH};
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
@@ -51,6 +50,7 @@ use pocketsplat_pda::stream::{
     REFINE_IO_BUDGET_BYTES,
 };
 use pocketsplat_pda::{render_stream_pass, render_stream_view};
+use pocketsplat_pda::{HEIGHT, WIDTH};
 
 pub use pocketsplat_core::stream::sdmmc::NoClock;
 /// Bytes of block cache, the QEMU firmware's (64 KB).

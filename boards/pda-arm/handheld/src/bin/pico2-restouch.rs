@@ -20,11 +20,11 @@ use hal::clocks::Clock as _;
 use hal::fugit::RateExtU32;
 use hal::gpio::{FunctionSpi, PinState};
 use panic_probe as _;
-use pocketsplat_pda::{HEIGHT, WIDTH};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_handheld::{
     halt, init_panel, run, Buttons, Clock, Memory, Panel, StreamTables, StreamTargets, CACHE_BYTES,
 };
+use pocketsplat_pda::{HEIGHT, WIDTH};
 use rp235x_hal as hal;
 
 /// Tells the boot ROM this is a secure Arm executable.
