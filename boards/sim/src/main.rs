@@ -165,6 +165,20 @@ enum Command {
         #[arg(long)]
         color_by_level: bool,
     },
+    /// Write a `.tg` file again in another layout, every value kept (the same pixels): a
+    /// version 2 file becomes version 3 with bricks, which `render --stream` reads.
+    Migrate {
+        /// The `.tg` file (version 1, 2 or 3).
+        input: PathBuf,
+        /// Output file.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// bricked (version 3, for streaming; the default), unbricked (version 3, every level one
+        /// array: what a resident walk draws fastest) or v2.
+        #[arg(long, default_value = "bricked",
+              value_parser = clap::builder::PossibleValuesParser::new(cmd::migrate::LAYOUTS))]
+        layout: String,
+    },
     /// Reports measured live.
     Report {
         #[command(subcommand)]
@@ -305,6 +319,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             scene::cmd::info(&file, json)
         }
         Some(Command::Info { file, json }) => cmd::info::run(&file, json),
+        Some(Command::Migrate { input, out, layout }) => {
+            let layout = cmd::migrate::layout(&layout).expect("clap checked the name");
+            cmd::migrate::run(&input, &out, layout)
+        }
         Some(Command::Render {
             input,
             out,

@@ -4,6 +4,7 @@ use std::vec;
 use std::vec::Vec;
 
 use super::brick::{self, Brick, BrickEntry};
+use super::read::TriGrid;
 use super::read::{Header, LevelDir};
 use super::{
     mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, BRICKS_OFFSET, BRICK_LEVEL_OFFSET,
@@ -11,7 +12,7 @@ use super::{
     MAX_LEVELS, PRECISE_BYTES, VERSION,
 };
 use crate::bake::cone::cone_classes;
-use crate::bake::BakedGrid;
+use crate::bake::{BakedGrid, BakedLevel, PreciseCube};
 use crate::crc::crc32;
 
 /// Why a grid cannot be written.
@@ -144,6 +145,76 @@ pub fn write_tg_as(
     block_log2: u8,
     layout: Layout,
 ) -> Result<Vec<u8>, WriteError> {
+    // Normal cones go in the spare bits of ρ = 3 masks.
+    let cones = if grid.cones && grid.rho == 3 {
+        cone_classes(grid)
+    } else {
+        Vec::new()
+    };
+    write_with_cones(grid, block_log2, layout, cones)
+}
+
+/// A file read back into a [`BakedGrid`] and its normal-cone classes as stored (per level, per
+/// cell; empty without cones): what the writer needs to write the same grid in another layout.
+pub fn unbake(file: &TriGrid<'_>) -> (BakedGrid, Vec<Vec<u8>>) {
+    let h = file.header();
+    let levels = (0..=h.depth)
+        .map(|l| {
+            let n = file.level(l).count;
+            BakedLevel {
+                attrs: (0..n).map(|i| file.attr(l, i)).collect(),
+                colors: h
+                    .has_color()
+                    .then(|| (0..n).map(|i| file.color(l, i).unwrap_or(0)).collect()),
+                masks: if l < h.depth {
+                    (0..n).map(|i| file.mask(l, i)).collect()
+                } else {
+                    Vec::new()
+                },
+            }
+        })
+        .collect();
+    let cones = if h.has_cones() {
+        (0..=h.depth)
+            .map(|l| (0..file.level(l).count).map(|i| file.cone(l, i)).collect())
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let grid = BakedGrid {
+        rho: h.rho,
+        material_bits: h.material_bits,
+        origin: h.origin.map(f64::from),
+        side: f64::from(h.side),
+        bounds: h.bounds,
+        precise: h.has_precise().then_some(PreciseCube {
+            origin: h.origin64,
+            side: h.side64,
+            bounds: h.bounds64,
+        }),
+        levels,
+        cones: h.has_cones(),
+    };
+    (grid, cones)
+}
+
+/// Writes a validated file again in `layout`, with its block size and every stored value (cone
+/// classes included, as stored): `pocketsplat migrate`, for a version 2 file that is to be
+/// streamed. Its frames are the same pixels.
+///
+/// # Errors
+/// As [`write_tg_as`].
+pub fn rewrite_tg(file: &TriGrid<'_>, layout: Layout) -> Result<Vec<u8>, WriteError> {
+    let (grid, cones) = unbake(file);
+    write_with_cones(&grid, file.header().block_log2, layout, cones)
+}
+
+fn write_with_cones(
+    grid: &BakedGrid,
+    block_log2: u8,
+    layout: Layout,
+    cones: Vec<Vec<u8>>,
+) -> Result<Vec<u8>, WriteError> {
     if !BLOCK_LOG2_RANGE.contains(&block_log2) {
         return Err(WriteError::BlockSize(block_log2));
     }
@@ -156,12 +227,6 @@ pub fn write_tg_as(
         Layout::BrickedBelow(r) if usize::from(r) + 2 <= depth => Some(r),
         Layout::BrickedBelow(r) => return Err(WriteError::BrickLevel(r)),
         Layout::Unbricked | Layout::Version2 => None,
-    };
-    // Normal cones go in the spare bits of ρ = 3 masks.
-    let cones = if grid.cones && grid.rho == 3 {
-        cone_classes(grid)
-    } else {
-        Vec::new()
     };
     let mut header = Header {
         version: if layout == Layout::Version2 {

@@ -2,5 +2,6 @@
 
 pub mod bake;
 pub mod info;
+pub mod migrate;
 pub mod render;
 pub mod view;
