@@ -104,7 +104,8 @@ struct SlotReader<'c, 'a, C: ChunkSource + ?Sized> {
     src: &'c mut C,
     tick: u32,
     reads: OpenReads,
-    /// The medium's last failure, when a block could not be read intact.
+    /// The first failure of the block that could not be read intact (a later attempt may fail
+    /// otherwise: a server that has stopped answering).
     failed: Option<StreamError<C::Error>>,
 }
 
@@ -130,17 +131,19 @@ impl<C: ChunkSource + ?Sized> SlotReader<'_, '_, C> {
         let s = (0..self.cache.capacity()).min_by_key(|&s| self.cache.slots[s].used)?;
         self.cache.evict(s);
         let bs = 1usize << self.cache.log2;
+        self.failed = None;
         for _ in 0..OPEN_ATTEMPTS {
             self.reads.reads += 1;
             let buf = self.cache.slot_bytes(s);
             match self.src.read_at(b as u64 * bs as u64, buf) {
                 Err(e) => {
                     self.reads.read_errors += 1;
-                    self.failed = Some(StreamError::Device(e));
+                    self.failed.get_or_insert(StreamError::Device(e));
                 }
                 Ok(()) if crc32(buf) != want => {
                     self.reads.crc_errors += 1;
-                    self.failed = Some(StreamError::Format(TgError::BlockCrc(b as u32)));
+                    self.failed
+                        .get_or_insert(StreamError::Format(TgError::BlockCrc(b as u32)));
                 }
                 Ok(()) => {
                     self.failed = None;
