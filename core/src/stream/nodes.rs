@@ -60,6 +60,9 @@ pub(crate) struct Refine {
     pub passes: u32,
     /// Whether the last pass drew the rest of the frame (nothing it needed was absent).
     pub done: bool,
+    /// Descents the passes of this refined frame refused (malformed or inconsistent data): a
+    /// frame whose pass refused one is drawn coarser there, and never complete.
+    pub refused: u32,
 }
 
 impl Refine {
@@ -68,6 +71,7 @@ impl Refine {
         level: None,
         passes: 0,
         done: false,
+        refused: 0,
     };
 }
 

@@ -315,7 +315,9 @@ impl<'a> TgStream<'a> {
         &self.counters
     }
 
-    /// Blocks the last frame found missing (0: it was drawn as the resident file would be).
+    /// Blocks the last frame found missing, plus the descents it refused as malformed or
+    /// inconsistent (for a refined frame drawn in passes, those of every pass so far): 0 means it
+    /// was drawn as the resident file would be.
     pub fn missing(&self) -> u32 {
         self.missing
     }
@@ -490,7 +492,15 @@ impl<'a> TgStream<'a> {
         self.counters.inconsistent += inconsistent;
         self.counters.structure_errors += bad_bricks;
         self.inconsistent = inconsistent;
-        self.missing = self.queue.len() as u32 + dropped + inconsistent;
+        // A refined frame is whole only if no pass of it refused a descent (a later pass resumes
+        // past the place an earlier one drew coarser).
+        let refused = if phase == Phase::Progressive {
+            inconsistent
+        } else {
+            self.refine.refused = self.refine.refused.saturating_add(inconsistent);
+            self.refine.refused
+        };
+        self.missing = self.queue.len() as u32 + dropped + refused;
         stats
     }
 
