@@ -173,11 +173,11 @@ enum Command {
         /// Output file.
         #[arg(short, long)]
         out: PathBuf,
-        /// bricked (version 3, for streaming; the default), unbricked (version 3, every level one
-        /// array: what a resident walk draws fastest) or v2.
-        #[arg(long, default_value = "bricked",
-              value_parser = clap::builder::PossibleValuesParser::new(cmd::migrate::LAYOUTS))]
-        layout: String,
+        /// bricked (version 3, for streaming; the default), bricked:LEVEL (bricks below that
+        /// level), unbricked (version 3, every level one array: what a resident walk draws
+        /// fastest) or v2.
+        #[arg(long, default_value = "bricked", value_parser = cmd::migrate::layout)]
+        layout: pocketsplat_core::tg::write::Layout,
     },
     /// Reports measured live.
     Report {
@@ -319,10 +319,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             scene::cmd::info(&file, json)
         }
         Some(Command::Info { file, json }) => cmd::info::run(&file, json),
-        Some(Command::Migrate { input, out, layout }) => {
-            let layout = cmd::migrate::layout(&layout).expect("clap checked the name");
-            cmd::migrate::run(&input, &out, layout)
-        }
+        Some(Command::Migrate { input, out, layout }) => cmd::migrate::run(&input, &out, layout),
         Some(Command::Render {
             input,
             out,

@@ -9,16 +9,21 @@ use pocketsplat_core::tg::{TriGrid, Verify};
 
 use crate::fsutil;
 
-/// The layouts `--layout` names.
-pub const LAYOUTS: [&str; 3] = ["bricked", "unbricked", "v2"];
-
-/// The layout called `name` (one of [`LAYOUTS`]).
-pub fn layout(name: &str) -> Option<Layout> {
+/// The layout called `name`: `bricked` (the writer's brick level), `bricked:R` (bricks below level
+/// `R`), `unbricked` or `v2`.
+///
+/// # Errors
+/// A message naming the layouts, for any other name.
+pub fn layout(name: &str) -> Result<Layout, String> {
     match name {
-        "bricked" => Some(Layout::Bricked),
-        "unbricked" => Some(Layout::Unbricked),
-        "v2" => Some(Layout::Version2),
-        _ => None,
+        "bricked" => Ok(Layout::Bricked),
+        "unbricked" => Ok(Layout::Unbricked),
+        "v2" => Ok(Layout::Version2),
+        _ => name
+            .strip_prefix("bricked:")
+            .and_then(|r| r.parse().ok())
+            .map(Layout::BrickedBelow)
+            .ok_or_else(|| format!("{name}: expected bricked, bricked:LEVEL, unbricked or v2")),
     }
 }
 
