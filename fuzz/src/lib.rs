@@ -315,7 +315,7 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
 pub fn pack_base_files() -> &'static [Vec<u8>] {
     use pocketsplat_core::camera::Sphere;
     use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
-    use pocketsplat_core::scene::{ShadowMode, Savings};
+    use pocketsplat_core::scene::{Savings, ShadowMode};
     use pocketsplat_core::shade::DEFAULT_MATERIAL;
     static FILES: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
     FILES.get_or_init(|| {

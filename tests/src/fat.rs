@@ -45,22 +45,33 @@ pub const PART_START: u32 = 2048;
 /// When a tool fails or `dir` cannot be written: the tests that call this have nothing to test
 /// without the image.
 pub fn make_image(dir: &Path, file: &[u8], name: &str) -> PathBuf {
+    make_image_of(dir, &[(name, file)])
+}
+
+/// [`make_image`] holding several files, each `(name, bytes)` in the root directory (8.3 names).
+///
+/// # Panics
+/// As [`make_image`].
+pub fn make_image_of(dir: &Path, files: &[(&str, &[u8])]) -> PathBuf {
     let part = dir.join("part.img");
-    let host_file = dir.join("model.bin");
-    std::fs::write(&host_file, file).unwrap();
-    // Room for the file plus FAT overhead, at least 16 MB (FAT16 wants more than 4085 clusters).
-    let kib = (file.len() as u64 / 1024 + 1024).max(16 * 1024);
+    let total: u64 = files.iter().map(|(_, f)| f.len() as u64 + 4096).sum();
+    // Room for the files plus FAT overhead, at least 16 MB (FAT16 wants more than 4085 clusters).
+    let kib = (total / 1024 + 1024).max(16 * 1024);
     // mkfs.fat -C refuses to overwrite: a fixed `dir` is reused from run to run.
     let _ = std::fs::remove_file(&part);
     run(Command::new("mkfs.fat")
         .args(["-C", "-F", "16", "-n", "POCKETSPLAT"])
         .arg(&part)
         .arg(kib.to_string()));
-    run(Command::new("mcopy")
-        .arg("-i")
-        .arg(&part)
-        .arg(&host_file)
-        .arg(format!("::{name}")));
+    let host_file = dir.join("model.bin");
+    for (name, file) in files {
+        std::fs::write(&host_file, file).unwrap();
+        run(Command::new("mcopy")
+            .arg("-i")
+            .arg(&part)
+            .arg(&host_file)
+            .arg(format!("::{name}")));
+    }
     let part_bytes = std::fs::read(&part).unwrap();
     let sectors = (part_bytes.len() / 512) as u32;
     let mut disk = vec![0u8; PART_START as usize * 512];

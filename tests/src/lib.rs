@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 pub mod arm;
 pub mod elf;
 pub mod fat;
+pub mod hostile;
 
 /// The workspace root (the folder holding the top-level `Cargo.toml`).
 pub fn workspace_root() -> PathBuf {

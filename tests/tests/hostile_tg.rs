@@ -8,13 +8,17 @@
 //!
 //! Most damage is "sealed" afterwards (`write::seal` or `seal_header`): its CRCs are recomputed, so
 //! that the field and structure checks are what fires, not the checksum.
+//!
+//! The files here have one array per level (version 2, and version 3 without bricks), which these
+//! mutations address through the level directory; bricked files (version 3's default) have their
+//! own hostile tests in `hostile_bricks.rs`.
 
 use pocketsplat_core::bake::{BakeOptions, TriMesh};
 use pocketsplat_core::camera::{Placement, View, STANDARD_VIEWS};
 use pocketsplat_core::crc::crc32;
 use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::splat::NullSink;
-use pocketsplat_core::tg::write::seal;
+use pocketsplat_core::tg::write::{seal, write_tg_as, Layout};
 use pocketsplat_core::tg::{
     render_tg, TgError, TgFrame, TriGrid, Verify, CONE_SHIFT, DIRECTORY_ENTRY, DIRECTORY_OFFSET,
     FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAX_DEPTH,
@@ -26,10 +30,15 @@ use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings, ShadowMod
 const LOG2: u8 = 9;
 const BS: usize = 1 << LOG2;
 
+/// `mesh` baked and written in version 2's layout: every level one array (`Layout::Version2` or
+/// `Layout::Unbricked`).
+fn bake_as(mesh: &TriMesh, rho: u8, depth: u8, log2: u8, layout: Layout) -> Vec<u8> {
+    let (grid, _) = bake_mesh(mesh, BakeOptions { rho, depth }, log2, false).expect("bakes");
+    write_tg_as(&grid, log2, layout).expect("writes")
+}
+
 fn bake(mesh: &TriMesh, rho: u8, depth: u8, log2: u8) -> Vec<u8> {
-    bake_mesh(mesh, BakeOptions { rho, depth }, log2, false)
-        .expect("bakes")
-        .1
+    bake_as(mesh, rho, depth, log2, Layout::Unbricked)
 }
 
 /// The demo's trefoil knot, coarse, with three materials and vertex colours.
@@ -45,19 +54,29 @@ fn trefoil() -> TriMesh {
 }
 
 /// Real baked files: the trefoil as a tri-grid (with colours and materials) and as an octree, and the
-/// Stanford bunny (res4) as a tri-grid when the models are present (always under CI).
-fn bases() -> Vec<(&'static str, Vec<u8>)> {
+/// Stanford bunny (res4) as a tri-grid when the models are present (always under CI); each as
+/// version 2 and as version 3 without bricks.
+fn bases() -> Vec<(String, Vec<u8>)> {
     let t = trefoil();
     let mut plain = t.clone();
     plain.materials = None;
     plain.colors = None;
-    let mut out = vec![
-        ("trefoil rho 3 depth 4", bake(&t, 3, 4, LOG2)),
-        ("trefoil rho 2 depth 5", bake(&plain, 2, 5, LOG2)),
+    let mut meshes = vec![
+        ("trefoil rho 3 depth 4", t, 3, 4),
+        ("trefoil rho 2 depth 5", plain, 2, 5),
     ];
     if let Some(path) = pocketsplat_tests::model("bun_zipper_res4.ply") {
         let bunny = pocketsplat_sim::ply::load_mesh(&path).expect("bunny loads");
-        out.push(("bunny rho 3 depth 4", bake(&bunny, 3, 4, LOG2)));
+        meshes.push(("bunny rho 3 depth 4", bunny, 3, 4));
+    }
+    let mut out = Vec::new();
+    for (name, mesh, rho, depth) in meshes {
+        for (v, layout) in [("v2", Layout::Version2), ("v3", Layout::Unbricked)] {
+            out.push((
+                format!("{name} {v}"),
+                bake_as(&mesh, rho, depth, LOG2, layout),
+            ));
+        }
     }
     out
 }
@@ -157,6 +176,7 @@ fn render_views_culling(grid: &TriGrid<'_>, thorough: bool, backface_culling: bo
 fn bases_open_and_render() {
     for (name, bytes) in bases() {
         let grid = open(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!grid.header().bricked(), "{name}: one array per level");
         assert!(render_bounded(&grid) > 0, "{name}");
     }
 }
@@ -237,6 +257,8 @@ enum Field {
     MaterialBits,
     BlockLog2,
     Reserved,
+    /// Version 3: the brick level, the brick count and the brick table's offset.
+    Bricks,
     RootCube,
     Blocks,
     TableBlocks,
@@ -248,7 +270,7 @@ enum Field {
     HeaderCrc,
 }
 
-fn field_of(at: usize, depth: u8, table_blocks: u32) -> Field {
+fn field_of(at: usize, version: u16, depth: u8, table_blocks: u32) -> Field {
     let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * (usize::from(depth) + 1);
     match at {
         0..=3 => Field::Magic,
@@ -259,6 +281,7 @@ fn field_of(at: usize, depth: u8, table_blocks: u32) -> Field {
         10 => Field::NormalBits,
         11 => Field::MaterialBits,
         12 => Field::BlockLog2,
+        13 | 40..=47 if version >= 3 => Field::Bricks,
         13..=15 | 40..=47 => Field::Reserved,
         16..=31 => Field::RootCube,
         32..=35 => Field::Blocks,
@@ -286,7 +309,7 @@ fn flipped_bit_in_every_header_field() {
         let len = bytes.len() as u64;
         let mut accepted = Vec::new();
         for at in 0..BS {
-            let field = field_of(at, h.depth, h.crc_table_blocks);
+            let field = field_of(at, h.version, h.depth, h.crc_table_blocks);
             for bit in 0..8 {
                 let mut b = bytes.clone();
                 b[at] ^= 1 << bit;
@@ -297,6 +320,10 @@ fn flipped_bit_in_every_header_field() {
                 match field {
                     Field::Magic => {
                         assert_eq!(raw, TgError::BadMagic(b[..4].try_into().unwrap()), "{what}")
+                    }
+                    // Another version this reader knows reads the same header: its CRC fails.
+                    Field::Version if (1..=3).contains(&u16::from_le_bytes([b[4], b[5]])) => {
+                        assert_eq!(raw, TgError::BlockCrc(0), "{what}")
                     }
                     Field::Version => assert_eq!(
                         raw,
@@ -423,12 +450,14 @@ fn check_field_error(
         Field::MaterialBits => got == TgError::UnsupportedMaterialBits(b[11]),
         Field::Reserved => {
             let first = (0..BS).find(|&i| {
-                field_of(i, h.depth, h.crc_table_blocks) == Field::Reserved && b[i] != 0
+                field_of(i, h.version, h.depth, h.crc_table_blocks) == Field::Reserved && b[i] != 0
             });
             got == TgError::ReservedNotZero {
                 offset: first.unwrap() as u16,
             }
         }
+        // Bricks claimed by a file without any, or the brick level of a file without bricks.
+        Field::Bricks => matches!(got, TgError::BadBricks { .. }),
         Field::RootCube | Field::Bounds => matches!(got, TgError::BadRootCube { offset }
             if (16..72).contains(&offset)),
         Field::Blocks => {

@@ -480,6 +480,7 @@ fn the_trefoil_through_a_tiny_cache_is_drawn_in_passes_to_the_resident_frame() {
 
 mod hostile {
     use super::*;
+    use pocketsplat_core::tg::brick::Array;
     pub use pocketsplat_core::tg::write::seal;
     use pocketsplat_core::tg::{DIRECTORY_ENTRY, DIRECTORY_OFFSET};
 
@@ -504,9 +505,18 @@ mod hostile {
         DIRECTORY_OFFSET + DIRECTORY_ENTRY * level + 4 * field
     }
 
-    /// Byte offset of element `i` of directory array `field` (4-byte elements) at `level`.
+    /// Byte offset of element `i` of directory array `field` (3 masks, 4 groups) at `level` of the
+    /// valid file `b`, in the level directory or in a brick.
     pub fn elem(b: &[u8], level: usize, field: usize, i: u32) -> usize {
-        u32_at(b, dir_at(level, field)) as usize + 4 * i as usize
+        let array = if field == 3 {
+            Array::Mask
+        } else {
+            Array::Group
+        };
+        TriGrid::open(b, Verify::Structure)
+            .expect("a valid file")
+            .element_offset(level as u8, array, i)
+            .expect("an element the file has")
     }
 
     /// Streams `bytes` with the std view through `src`; checks the visit bound on every frame.
@@ -516,8 +526,9 @@ mod hostile {
             .map(|(_, d)| d.iter().map(|l| u64::from(l.count)).sum())
             .unwrap_or(u64::MAX);
         let settings = Settings::default();
-        let mut mem = OwnedStream::new(&mut *src, bytes.len()).map_err(|e| format!("{e:#}"))?;
-        let mut stream = mem.open(&mut *src).map_err(|e| format!("{e:#}"))?;
+        let mut mem =
+            OwnedStream::new(&mut *src, bytes.len()).map_err(|e| format!("at open: {e:#}"))?;
+        let mut stream = mem.open(&mut *src).map_err(|e| format!("at open: {e:#}"))?;
         let cam = camera_for(&stream, &settings);
         let mut table = Box::new(ShadingTable::<1>::new());
         let mut fb = FrameBuffers::new();
@@ -545,7 +556,8 @@ mod hostile {
     }
 
     /// `bytes` must be rejected by the resident reader, and streamed (as a slice, and through
-    /// `stream_render` as the CLI does) end in an error containing one of `needles`, or, where the
+    /// `stream_render` as the CLI does) end in an error containing one of `needles` (or, found when
+    /// the stream opens, the error the checks of the head and the brick table name), or, where the
     /// std view never reads the damage, in exactly the frame of the undamaged file `base` (valid
     /// data only).
     pub fn rejected(what: &str, bytes: &[u8], base: &[u8], needles: &[&str]) {
@@ -562,8 +574,9 @@ mod hostile {
             }
             Err(e) => e,
         };
+        let at_open = err.strip_prefix("at open: ");
         assert!(
-            needles.iter().any(|n| err.contains(n)),
+            at_open.is_some() || needles.iter().any(|n| err.contains(n)),
             "{what}: {err:?} names none of {needles:?}"
         );
         let mut fb = FrameBuffers::new();
@@ -577,7 +590,9 @@ mod hostile {
         .expect_err(what);
         let err = format!("{err:#}");
         assert!(
-            needles.iter().any(|n| err.contains(n)) || err.contains("malformed"),
+            needles.iter().any(|n| err.contains(n))
+                || err.contains("malformed")
+                || at_open.is_some_and(|e| err.contains(e)),
             "{what}: stream_render: {err}"
         );
         assert!(t.elapsed().as_secs() < 20, "{what}: took {:?}", t.elapsed());
@@ -657,6 +672,26 @@ fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound
         for level in [1usize, 2] {
             let n = grid.level(level as u8).count;
             let below = grid.level(level as u8 + 2).count;
+            // Where each group pointer of the level lies (in the directory's array or in bricks).
+            let offs: std::rc::Rc<Vec<usize>> = std::rc::Rc::new(
+                (0..n)
+                    .map(|i| {
+                        grid.element_offset(
+                            level as u8,
+                            pocketsplat_core::tg::brick::Array::Group,
+                            i,
+                        )
+                        .unwrap()
+                    })
+                    .collect(),
+            );
+            let (o1, o2, o3, o4, o5) = (
+                offs.clone(),
+                offs.clone(),
+                offs.clone(),
+                offs.clone(),
+                offs.clone(),
+            );
             type Damage = Box<dyn Fn(&mut Vec<u8>)>;
             let cases: [(&str, Damage); 5] = [
                 // Every cell's grandchildren are cell 0's: a DAG.
@@ -664,8 +699,7 @@ fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound
                     "all aliased to the first group",
                     Box::new(move |b: &mut Vec<u8>| {
                         for i in 0..n {
-                            let at = elem(b, level, 4, i);
-                            put_u32(b, at, 0);
+                            put_u32(b, o1[i as usize], 0);
                         }
                     }),
                 ),
@@ -673,26 +707,25 @@ fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound
                 (
                     "one pair aliased",
                     Box::new(move |b: &mut Vec<u8>| {
-                        let at = elem(b, level, 4, n / 2);
-                        let prev = u32_at(b, at - 4);
-                        put_u32(b, at, prev);
+                        let i = (n / 2) as usize;
+                        let prev = u32_at(b, o2[i - 1]);
+                        put_u32(b, o2[i], prev);
                     }),
                 ),
                 // A pointer before its predecessor's.
                 (
                     "backward",
                     Box::new(move |b: &mut Vec<u8>| {
-                        let at = elem(b, level, 4, n / 2);
-                        let prev = u32_at(b, at - 4);
-                        put_u32(b, at, prev.saturating_sub(1));
+                        let i = (n / 2) as usize;
+                        let prev = u32_at(b, o3[i - 1]);
+                        put_u32(b, o3[i], prev.saturating_sub(1));
                     }),
                 ),
                 // Past the end of the level two below.
                 (
                     "past the end",
                     Box::new(move |b: &mut Vec<u8>| {
-                        let at = elem(b, level, 4, n - 1);
-                        put_u32(b, at, below + 5);
+                        put_u32(b, o4[(n - 1) as usize], below + 5);
                     }),
                 ),
                 // Each group moved back by one: every entry increases, none is the running count,
@@ -700,10 +733,9 @@ fn hostile_group_pointers_with_valid_crcs_end_in_an_error_within_the_visit_bound
                 (
                     "all shifted back by one",
                     Box::new(move |b: &mut Vec<u8>| {
-                        for i in 1..n {
-                            let at = elem(b, level, 4, i);
-                            let g = u32_at(b, at);
-                            put_u32(b, at, g - 1);
+                        for i in 1..n as usize {
+                            let g = u32_at(b, o5[i]);
+                            put_u32(b, o5[i], g - 1);
                         }
                     }),
                 ),
@@ -769,6 +801,11 @@ fn hostile_counts_and_block_counts_fail_at_open_without_allocating() {
                 put_u32(&mut b, dir_at(l, f), off + ((t - old_t) << 16));
             }
         }
+    }
+    // The brick table too (its entries are not read before the header is refused).
+    let table = u32_at(&b, 44);
+    if table != 0 {
+        put_u32(&mut b, 44, table + ((t - old_t) << 16));
     }
     let bs = 1usize << 16;
     let c = pocketsplat_core::crc::crc32(&b[..bs - 4]);

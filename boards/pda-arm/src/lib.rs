@@ -29,6 +29,8 @@
 // Per-pixel work is integer only, as on the FPU-less device (docs/ARCHITECTURE.md, Numbers).
 #![deny(clippy::float_arithmetic)]
 
+#[cfg(feature = "stream")]
+pub mod hostile;
 #[cfg(feature = "scene")]
 pub mod scene;
 #[cfg(feature = "stream")]

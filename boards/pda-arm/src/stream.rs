@@ -146,6 +146,17 @@ pub struct StreamMemory<'a> {
     pub blocks: &'a mut [BlockEntry; MAX_FILE_BLOCKS],
 }
 
+impl StreamMemory<'_> {
+    /// The same memory for another stream (one file after another).
+    pub fn reborrow(&mut self) -> StreamMemory<'_> {
+        StreamMemory {
+            data: self.data,
+            slots: self.slots,
+            blocks: self.blocks,
+        }
+    }
+}
+
 /// A part of the sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Leg {

@@ -13,6 +13,7 @@ pub mod input;
 pub mod levels;
 pub mod limits;
 pub mod metrics;
+pub mod migrate;
 pub mod models;
 pub mod ply;
 pub mod qsplat;

@@ -34,6 +34,9 @@ enum Command {
     /// Describe a point file (header, samples and α per level, size per leaf sample) or a scene
     /// pack (per object what is present and what was left out, and the RAM a frame needs).
     Info(cli::info::InfoArgs),
+    /// Write a `.tg` file again in another layout, every value kept (the same pixels): a version 2
+    /// file becomes version 3 with bricks, which `render --stream` reads.
+    Migrate(cli::migrate::MigrateArgs),
     /// Render a point file (integer renderer) or a mesh (f64 reference renderer) to a PNG.
     Render(cli::render::RenderArgs),
     /// Show a point file in a window: orbit, pan and zoom with the mouse and keys, refined to
@@ -58,6 +61,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
         None => cli::demo::run(),
         Some(Command::Bake(args)) => cli::bake::run(&args),
         Some(Command::Info(args)) => cli::info::run(&args),
+        Some(Command::Migrate(args)) => cli::migrate::run(&args),
         Some(Command::Render(args)) => {
             let sub = matches
                 .subcommand_matches("render")

@@ -5,7 +5,7 @@
 //! leave no output or temporary file behind; valid extremes must bake, read back and render.
 
 mod common;
-use common::{fails, succeeds};
+use common::{fails, files_in, pocketsplat, succeeds};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -373,66 +373,103 @@ fn a_closed_stdout_is_not_a_crash() {
 #[test]
 fn streamed_hostile_files_fail_cleanly_and_write_no_png() {
     use pocketsplat_core::bake::BakeOptions;
-    use pocketsplat_core::tg::write::seal;
+    use pocketsplat_core::tg::brick::Array;
+    use pocketsplat_core::tg::write::{seal, write_tg_as, Layout};
     use pocketsplat_core::tg::{TriGrid, Verify, DIRECTORY_ENTRY, DIRECTORY_OFFSET};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mesh = pocketsplat_sim::demo::trefoil(96, 8, 0.45);
-    let base = pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
-        .unwrap()
-        .1;
+    let (baked, base) =
+        pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)
+            .unwrap();
     let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
     let put = |b: &mut [u8], at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
     let dir_at =
         |level: usize, field: usize| DIRECTORY_OFFSET + DIRECTORY_ENTRY * level + 4 * field;
-    let elem = |b: &[u8], level: usize, field: usize, i: u32| {
-        u32_at(b, dir_at(level, field)) as usize + 4 * i as usize
-    };
     let grid = TriGrid::open(&base, Verify::Full).unwrap();
+    // Where element `i` of array `field` (3 masks, 4 groups) of `level` lies, in the level
+    // directory's arrays or in the bricks of the version 3 file.
+    let elem = |_: &[u8], level: usize, field: usize, i: u32| {
+        let array = if field == 3 {
+            Array::Mask
+        } else {
+            Array::Group
+        };
+        grid.element_offset(level as u8, array, i).unwrap()
+    };
     let n1 = grid.level(1).count;
-    let mut cases: Vec<(&str, Vec<u8>, &str)> = Vec::new();
+    // A needle, or (its alternative) what the checks at open name: damage in the head or the brick
+    // table is found before the first frame, damage in a brick when the walk first enters it.
+    let mut cases: Vec<(&str, Vec<u8>, [&str; 2])> = Vec::new();
     let mut b = base.clone();
     let at = elem(&b, 1, 3, 0);
     let m = u32_at(&b, at);
     put(&mut b, at, m | 1 << 31);
-    cases.push(("mask-bit31.tg", b, "malformed"));
+    cases.push(("mask-bit31.tg", b, ["malformed", "invalid child mask"]));
     let mut b = base.clone();
     for i in 0..n1 {
         let at = elem(&b, 1, 4, i);
         put(&mut b, at, 0);
     }
-    cases.push(("aliased.tg", b, "malformed"));
+    cases.push((
+        "aliased.tg",
+        b,
+        ["malformed", "wrong sibling-group pointer"],
+    ));
     let mut b = base.clone();
     let at = elem(&b, 1, 4, n1 / 2);
     let prev = u32_at(&b, at - 4);
     put(&mut b, at, prev - 1);
-    cases.push(("backward.tg", b, "malformed"));
+    cases.push((
+        "backward.tg",
+        b,
+        ["malformed", "wrong sibling-group pointer"],
+    ));
     let mut b = base.clone();
     put(&mut b, dir_at(2, 0), grid.level(1).count - 1);
-    cases.push(("count.tg", b, "samples, but the level above announces"));
+    let count = "samples, but the level above announces";
+    cases.push(("count.tg", b, [count, count]));
     let mut b = base[..base.len() / 2].to_vec();
     seal(&mut b);
-    cases.push(("short.tg", b, "but the header announces"));
-    for (name, mut bytes, needle) in cases {
-        if name != "short.tg" {
+    let short = "but the header announces";
+    cases.push(("short.tg", b, [short, short]));
+    // A valid version 2 file: refused, with the way to migrate it.
+    let v2 = write_tg_as(&baked, 9, Layout::Version2).unwrap();
+    let refusal = "a version 2 .tg file cannot be streamed";
+    cases.push(("v2.tg", v2, [refusal, refusal]));
+    for (name, mut bytes, needles) in cases {
+        if name != "short.tg" && name != "v2.tg" {
             seal(&mut bytes);
         }
-        assert!(TriGrid::open(&bytes, Verify::Full).is_err(), "{name}");
+        assert!(
+            TriGrid::open(&bytes, Verify::Full).is_err() || name == "v2.tg",
+            "{name}"
+        );
         std::fs::write(d.join(name), &bytes).unwrap();
         let t = Instant::now();
-        fails(
-            d,
-            &[
-                "render",
-                name,
-                "--stream",
-                "-o",
-                "out.png",
-                "--max-frames",
-                "100000",
-            ],
-            &[name, needle],
+        let args = [
+            "render",
+            name,
+            "--stream",
+            "-o",
+            "out.png",
+            "--max-frames",
+            "100000",
+        ];
+        let before = files_in(d);
+        let out = pocketsplat(&args, d);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: should fail");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        assert!(err.contains(name), "{name}: {err}");
+        assert!(
+            needles.iter().any(|n| err.contains(n)),
+            "{name}: none of {needles:?} in {err:?}"
         );
+        if name == "v2.tg" {
+            assert!(err.contains("pocketsplat migrate"), "{err}");
+        }
+        assert_eq!(files_in(d), before, "{name}: left a file behind");
         assert!(
             t.elapsed() < Duration::from_secs(30),
             "{name}: {:?}",

@@ -44,6 +44,9 @@ fn header() -> Header {
         origin64: [-1.0; 3],
         side64: 2.0,
         bounds64: [[-1.0; 3], [1.0; 3]],
+        brick_level: 0,
+        bricks: 0,
+        brick_table: 0,
     }
 }
 

@@ -11,6 +11,11 @@ pub(crate) const NO_SLOT: u16 = u16::MAX;
 pub(crate) const NOT_QUEUED: u16 = u16::MAX;
 /// No block in this slot.
 pub(crate) const NO_BLOCK: u32 = u32::MAX;
+/// [`BlockEntry::flags`]: the brick that starts at this block passed its check (version 3 bricks
+/// are checked once, the first time the walk enters them; their bytes are sealed by their CRCs).
+pub(crate) const BRICK_OK: u8 = 1;
+/// [`BlockEntry::flags`]: the brick that starts at this block failed its check.
+pub(crate) const BRICK_BAD: u8 = 2;
 /// Fewest blocks a cache may hold: the coarse levels plus room to refine.
 pub const MIN_SLOTS: usize = 4;
 
@@ -29,6 +34,8 @@ pub struct BlockEntry {
     pub(crate) fails: u8,
     /// Coarsest level with data in the block (eviction keeps coarse classes).
     pub(crate) class: u8,
+    /// [`BRICK_OK`] or [`BRICK_BAD`] once the brick starting here was checked.
+    pub(crate) flags: u8,
 }
 
 impl BlockEntry {
@@ -40,6 +47,7 @@ impl BlockEntry {
         queued: NOT_QUEUED,
         fails: 0,
         class: 0,
+        flags: 0,
     };
 }
 

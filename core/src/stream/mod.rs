@@ -36,6 +36,8 @@
 #![deny(clippy::float_arithmetic)]
 
 mod cache;
+mod nodes;
+mod open;
 mod tg;
 pub mod torture;
 
@@ -43,10 +45,8 @@ pub mod torture;
 pub mod sdmmc;
 
 pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
-pub use tg::{
-    read_tg_header, size_class, stream_priority, ServeReport, StreamCounters, TgStream,
-    OPEN_ATTEMPTS, QUEUE_CAPACITY,
-};
+pub use open::{read_tg_header, OPEN_ATTEMPTS};
+pub use tg::{size_class, stream_priority, ServeReport, StreamCounters, TgStream, QUEUE_CAPACITY};
 
 use crate::tg::TgError;
 

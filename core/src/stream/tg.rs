@@ -6,23 +6,22 @@ use core::cell::Cell;
 use heapless::Vec;
 
 use super::cache::{BlockCache, BlockEntry, SlotEntry, NOT_QUEUED, NO_SLOT};
+use super::nodes::{Bricks, Entered, Level, PassState, Phase, Refine, Request, StreamNodes};
+use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
 use crate::splat::{SampleSplat, SplatSink, Stats};
-use crate::tg::read::{check_block, check_counts, parse_header, Header, LevelDir};
-use crate::tg::traverse::{render_nodes, NoShadows, NodeData, ShadowHooks};
+use crate::tg::brick::band_end;
+use crate::tg::read::{check_block, Header, LevelDir};
+use crate::tg::traverse::{render_nodes, NoShadows, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
 
 /// Requests one frame may queue; further ones replace the lowest or are dropped (and counted).
 pub const QUEUE_CAPACITY: usize = 256;
-/// Attempts at the header and at each CRC-table block when opening.
-pub const OPEN_ATTEMPTS: u32 = 8;
-/// Smallest block a `.tg` file has (the header's own block size is read from its first 512 bytes).
-const MIN_BLOCK: usize = 512;
 /// Longest backoff after repeated failures, frames.
 const MAX_BACKOFF: u32 = 64;
 /// Priority of the root's own blocks: before anything else.
-const ROOT_PRIORITY: u32 = u32::MAX;
+pub(crate) const ROOT_PRIORITY: u32 = u32::MAX;
 /// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
 const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
 
@@ -42,73 +41,6 @@ pub fn stream_priority(size_q8: i32, y_q8: i32) -> u32 {
     size_class(size_q8) << 16 | (0xFFFF - row)
 }
 
-/// Reads and checks the header block of a `.tg` file through `scratch` (at least one block; 64 KB
-/// covers every block size), trying [`OPEN_ATTEMPTS`] times. Returns the header, the level
-/// directory and the number of failed attempts.
-///
-/// A header that parses is then checked against the medium and itself, at once (a sealed header
-/// reads the same every time): its block count against [`ChunkSource::byte_len`] where the medium
-/// knows it ([`TgError::LengthMismatch`]), and its level counts against each other
-/// ([`crate::tg::read::check_counts`]), before anything is sized by them.
-///
-/// # Errors
-/// The last failure when every attempt failed: [`StreamError::Device`] for the medium,
-/// [`StreamError::Format`] for the header, [`StreamError::CacheTooSmall`] when `scratch` is smaller
-/// than the file's blocks.
-pub fn read_tg_header<C: ChunkSource + ?Sized>(
-    src: &mut C,
-    scratch: &mut [u8],
-) -> Result<(Header, [LevelDir; MAX_LEVELS], u32), StreamError<C::Error>> {
-    let mut last = StreamError::Format(TgError::TooShort(0));
-    for attempt in 0..OPEN_ATTEMPTS {
-        match try_header(src, scratch) {
-            Ok((h, d)) => {
-                // Bound what the header sizes (the block table, the walk) by the source before
-                // anything is allocated from it: a header that parses is sealed, so these faults
-                // do not go away on a second read.
-                let expected = u64::from(h.blocks) << h.block_log2;
-                if let Some(found) = src.byte_len().filter(|&n| n != expected) {
-                    return Err(StreamError::Format(TgError::LengthMismatch {
-                        expected,
-                        found,
-                    }));
-                }
-                check_counts(&h, &d).map_err(StreamError::Format)?;
-                return Ok((h, d, attempt));
-            }
-            Err(e @ StreamError::CacheTooSmall { .. }) => return Err(e),
-            Err(e) => last = e,
-        }
-    }
-    Err(last)
-}
-
-fn try_header<C: ChunkSource + ?Sized>(
-    src: &mut C,
-    scratch: &mut [u8],
-) -> Result<(Header, [LevelDir; MAX_LEVELS]), StreamError<C::Error>> {
-    let too_small = |bs: usize| StreamError::CacheTooSmall {
-        block_size: bs as u32,
-        slots: 0,
-    };
-    let first = scratch.get_mut(..MIN_BLOCK).ok_or(too_small(MIN_BLOCK))?;
-    src.read_at(0, first).map_err(StreamError::Device)?;
-    let log2 = first[12];
-    if !crate::tg::BLOCK_LOG2_RANGE.contains(&log2) {
-        // Let the parser name the first thing wrong (magic, version, block size).
-        return Err(StreamError::Format(
-            parse_header(first).err().unwrap_or(TgError::BlockCrc(0)),
-        ));
-    }
-    let bs = 1usize << log2;
-    let block = scratch.get_mut(..bs).ok_or(too_small(bs))?;
-    if bs > MIN_BLOCK {
-        src.read_at(MIN_BLOCK as u64, &mut block[MIN_BLOCK..])
-            .map_err(StreamError::Device)?;
-    }
-    parse_header(block).map_err(StreamError::Format)
-}
-
 /// Cumulative counts of a stream: what was read, what failed, what was evicted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -123,8 +55,9 @@ pub struct StreamCounters {
     pub read_errors: u32,
     /// Blocks that arrived but failed their CRC.
     pub crc_errors: u32,
-    /// Blocks that passed their CRC but not the structure check ([`check_block`]): absent, as if
-    /// damaged.
+    /// Blocks that passed their CRC but not the structure check ([`check_block`]), and bricks that
+    /// failed theirs ([`crate::tg::brick::check_brick`], when the walk first entered them): absent,
+    /// as if damaged.
     pub structure_errors: u32,
     /// Descents the walk refused because what it read from several resident blocks disagrees
     /// (children outside their level, sibling groups that overlap or run backwards, more nodes than
@@ -152,21 +85,6 @@ pub struct ServeReport {
     pub prefetched: u32,
 }
 
-#[derive(Clone, Copy, Debug)]
-struct Request {
-    priority: u32,
-    block: u32,
-}
-
-/// Byte offsets and counts of one level's arrays.
-#[derive(Clone, Copy, Debug, Default)]
-struct Level {
-    count: u32,
-    attr: u64,
-    mask: u64,
-    group: u64,
-}
-
 /// A `.tg` file being streamed: header, level directory, block cache and request queue.
 #[derive(Debug)]
 pub struct TgStream<'a> {
@@ -190,43 +108,6 @@ pub struct TgStream<'a> {
     refine: Refine,
     /// Whether the last frame was a pass: [`TgStream::serve`] then reads in block order.
     passing: bool,
-}
-
-/// Where a refined frame drawn in passes stands: the cell the last pass stopped at (the path of
-/// indices from the root to it), or the frame's start.
-#[derive(Clone, Copy, Debug)]
-struct Refine {
-    /// Indices of the cursor's ancestors and itself, per level `0..=level`.
-    path: [u32; MAX_LEVELS],
-    /// Level of the cursor; `None`: the frame starts from the root.
-    level: Option<u8>,
-    /// Passes drawn of this refined frame.
-    passes: u32,
-    /// Whether the last pass drew the rest of the frame (nothing it needed was absent).
-    done: bool,
-}
-
-impl Refine {
-    const START: Self = Self {
-        path: [0; MAX_LEVELS],
-        level: None,
-        passes: 0,
-        done: false,
-    };
-}
-
-/// What a pass does at this point of its walk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Phase {
-    /// A frame drawn whole from what is resident, coarser where blocks are absent.
-    Progressive,
-    /// A pass before its first absent block: skip what earlier passes drew, draw the rest.
-    Draw,
-    /// After the first absent block: draw nothing more, walk on through resident blocks to queue
-    /// the next ones the frame needs, in file order.
-    Lookahead,
-    /// Enough is queued: leave the rest of the frame alone.
-    Done,
 }
 
 /// A sink that draws only while a pass has drawn nothing out of order yet.
@@ -280,15 +161,7 @@ impl<'a> TgStream<'a> {
                 slots: slots_avail,
             },
         )?;
-        let mut levels = [Level::default(); MAX_LEVELS];
-        for (l, d) in levels.iter_mut().zip(&dirs) {
-            *l = Level {
-                count: d.count,
-                attr: u64::from(d.attr_off),
-                mask: u64::from(d.mask_off),
-                group: u64::from(d.group_off),
-            };
-        }
+        let levels = dirs.map(|d| Level::of(&d));
         let mut s = TgStream {
             header,
             dirs,
@@ -308,6 +181,13 @@ impl<'a> TgStream<'a> {
         s.counters.bytes_read = (u64::from(header_fails) + 1) * bs as u64;
         s.load_crc_table(src)?;
         s.classify(&dirs);
+        // The head and the brick table, checked whole before the first frame (the bricks are
+        // checked one by one as the walk first enters them).
+        let reads = check_head_and_table(&header, &dirs, &mut s.cache, src)?;
+        s.counters.reads += reads.reads;
+        s.counters.bytes_read += u64::from(reads.reads) * bs as u64;
+        s.counters.read_errors += reads.read_errors;
+        s.counters.crc_errors += reads.crc_errors;
         Ok(s)
     }
 
@@ -364,7 +244,8 @@ impl<'a> TgStream<'a> {
     }
 
     /// Gives each data block its class (the coarsest level with data in it), and pins the coarsest
-    /// levels that fit in half the cache.
+    /// levels that fit in half the cache. In a bricked file the brick table counts as the brick
+    /// level's (every descent below it reads the table), the bricks as the level below.
     fn classify(&mut self, dirs: &[LevelDir; MAX_LEVELS]) {
         let h = self.header;
         let log2 = h.block_log2;
@@ -386,6 +267,17 @@ impl<'a> TgStream<'a> {
                 }
             });
             level_end[l] = ends.into_iter().max().unwrap_or(0);
+        }
+        if h.bricked() {
+            let r = usize::from(h.brick_level);
+            let table = u64::from(h.brick_table)
+                + u64::from(h.bricks)
+                    * crate::tg::brick::entry_bytes(h.brick_level, h.depth) as u64;
+            level_end[r] = level_end[r].max(table);
+            let band = band_end(&h, dirs);
+            for end in &mut level_end[r + 1..usize::from(h.depth)] {
+                *end = band;
+            }
         }
         let first_data = h.crc_table_blocks as usize + 1;
         for (b, e) in self.cache.blocks.iter_mut().enumerate().skip(first_data) {
@@ -423,7 +315,9 @@ impl<'a> TgStream<'a> {
         &self.counters
     }
 
-    /// Blocks the last frame found missing (0: it was drawn as the resident file would be).
+    /// Blocks the last frame found missing, plus the descents it refused as malformed or
+    /// inconsistent (for a refined frame drawn in passes, those of every pass so far): 0 means it
+    /// was drawn as the resident file would be.
     pub fn missing(&self) -> u32 {
         self.missing
     }
@@ -527,6 +421,7 @@ impl<'a> TgStream<'a> {
         self.queue.clear();
         let mut dropped = 0u32;
         let mut inconsistent = 0u32;
+        let mut bad_bricks = 0u32;
         // Light-ordered levels visit siblings out of index order: there only the node budget holds.
         let in_order = (0..self.header.levels()).all(|l| !hooks.ordered(l));
         let slots = self.cache.capacity() as u32;
@@ -552,21 +447,28 @@ impl<'a> TgStream<'a> {
             lookahead: LOOKAHEAD_DESCENTS,
             stopping: false,
         };
+        let h = self.header;
         let mut nodes = StreamNodes {
             cache: &mut self.cache,
             queue: &mut self.queue,
             dropped: &mut dropped,
             inconsistent: &mut inconsistent,
+            bad_bricks: &mut bad_bricks,
             next_free: [0; MAX_LEVELS],
             in_order,
             // The root is visited without a descent.
             nodes_left: self.samples.saturating_sub(1),
             levels: self.levels,
-            rho: self.header.rho,
-            depth: self.header.depth,
-            mask_bytes: u64::from(self.header.mask_bytes()),
+            header: h,
+            dirs: self.dirs,
+            bricks: h.bricked().then(|| Bricks {
+                level: h.brick_level,
+                band_end: band_end(&h, &self.dirs),
+                entered: Entered::None,
+            }),
             frame: self.frame,
             pass: &mut pass,
+            need: [(0, 0); 6],
         };
         // The root's own attribute and mask are what the first splat needs.
         let root = nodes.ranges(0, 0, 1, None);
@@ -588,8 +490,17 @@ impl<'a> TgStream<'a> {
         }
         self.counters.dropped += dropped;
         self.counters.inconsistent += inconsistent;
+        self.counters.structure_errors += bad_bricks;
         self.inconsistent = inconsistent;
-        self.missing = self.queue.len() as u32 + dropped + inconsistent;
+        // A refined frame is whole only if no pass of it refused a descent (a later pass resumes
+        // past the place an earlier one drew coarser).
+        let refused = if phase == Phase::Progressive {
+            inconsistent
+        } else {
+            self.refine.refused = self.refine.refused.saturating_add(inconsistent);
+            self.refine.refused
+        };
+        self.missing = self.queue.len() as u32 + dropped + refused;
         stats
     }
 
@@ -720,377 +631,6 @@ impl<'a> TgStream<'a> {
             let e = &self.cache.blocks[b];
             e.slot == NO_SLOT && self.ready(e)
         })
-    }
-}
-
-/// The traversal's view of a stream: reads through the cache, asks for what is missing.
-struct StreamNodes<'s, 'a, 'p> {
-    cache: &'s mut BlockCache<'a>,
-    queue: &'s mut Vec<Request, QUEUE_CAPACITY>,
-    dropped: &'s mut u32,
-    /// Descents refused by [`StreamNodes::claim`].
-    inconsistent: &'s mut u32,
-    /// Per level, the index after the last sibling group this frame descended into there: a
-    /// depth-first walk in slot order meets each level's groups in index order, so a group that
-    /// starts before it overlaps one already visited (aliased or backward group pointers).
-    next_free: [u32; MAX_LEVELS],
-    /// Whether the walk visits siblings in slot order (no light-ordered levels).
-    in_order: bool,
-    /// Nodes this frame may still enter by descents: the file's samples less those entered.
-    nodes_left: u64,
-    levels: [Level; MAX_LEVELS],
-    rho: u8,
-    depth: u8,
-    mask_bytes: u64,
-    frame: u32,
-    pass: &'s mut PassState<'p>,
-}
-
-/// A pass's walk state ([`TgStream::render_pass`]); a progressive frame has [`Phase::Progressive`].
-struct PassState<'s> {
-    phase: Phase,
-    /// What a touch marks a block used at: the frame, or the frame before while a pass draws
-    /// (blocks it only drew from are not kept for the later passes).
-    stamp: u32,
-    /// Cleared at the pass's first absent block: nothing more is drawn.
-    drawing: &'s Cell<bool>,
-    /// Where this pass resumes: cells before this path in walk order are skipped.
-    resume: Refine,
-    /// Per level, the last descent taken: (cell, its first child, its children).
-    stack: [(u32, u32, u32); MAX_LEVELS],
-    /// The level of the cell this pass stopped at (its first absent descent), with `path`.
-    stop: Option<u8>,
-    path: [u32; MAX_LEVELS],
-    /// Blocks the lookahead may keep or queue: the unpinned cache, less one.
-    room: u32,
-    /// Unpinned blocks marked used since the stop, plus those queued.
-    kept: u32,
-    /// Descents the lookahead may still take.
-    lookahead: u32,
-    /// The next request is the stop's own.
-    stopping: bool,
-}
-
-/// Byte ranges (offset, length) one descent reads: children's attributes and masks, parent's group.
-type Ranges = [(u64, u64); 3];
-
-impl StreamNodes<'_, '_, '_> {
-    /// Whether the walk may enter the `n` cells from `first` at `level` (a sibling group): they lie
-    /// inside the level, after every group already entered there this frame (each cell has one
-    /// parent, so a valid file never enters a cell twice), and within the frame's node budget. This
-    /// is what makes a frame's work bounded by the file's sample count whatever the pointers say:
-    /// every node but the root is entered through one accepted claim.
-    #[inline]
-    fn claim(&mut self, level: u8, first: u32, n: u32) -> bool {
-        let l = usize::from(level);
-        let (Some(dir), Some(&free)) = (self.levels.get(l), self.next_free.get(l)) else {
-            return false;
-        };
-        let end = u64::from(first) + u64::from(n);
-        if end > u64::from(dir.count)
-            || (self.in_order && first < free)
-            || u64::from(n) > self.nodes_left
-        {
-            return false;
-        }
-        self.next_free[l] = end as u32;
-        self.nodes_left -= u64::from(n);
-        true
-    }
-
-    /// What reading samples `first..first + n` of level `level` needs, plus the group pointer of
-    /// cell `parent` on the level above when those samples have grandchildren.
-    fn ranges(&self, level: u8, first: u32, n: u32, parent: Option<u32>) -> Ranges {
-        let l = &self.levels[usize::from(level)];
-        let (first, n) = (u64::from(first), u64::from(n));
-        let mut r = [(0, 0); 3];
-        r[0] = (l.attr + 2 * first, 2 * n);
-        if level < self.depth {
-            r[1] = (l.mask + self.mask_bytes * first, self.mask_bytes * n);
-        }
-        if let (Some(p), true) = (parent, level < self.depth) {
-            // The parent's group entry and the next cell's, which ends the parent's grandchildren
-            // (`group_consistent`); the level's count ends the last cell's.
-            let up = &self.levels[usize::from(level) - 1];
-            let len = if p + 1 < up.count { 8 } else { 4 };
-            r[2] = (up.group + 4 * u64::from(p), len);
-        }
-        r
-    }
-
-    /// Whether the group entry of cell `index` at `level` (resident, as the masks of its `n`
-    /// children from `first`) spans exactly its children's children: it ends where the next cell's
-    /// entry starts, or at the end of the level two below for the last cell (FORMAT.md "Group").
-    /// With [`StreamNodes::claim`] this catches aliased, backward and skewed pointers between
-    /// blocks that each passed [`check_block`]; a whole run of entries shifted alike is only caught
-    /// where the walk reaches one of its ends.
-    fn group_consistent(&self, level: u8, index: u32, first: u32, n: u32) -> bool {
-        let l = usize::from(level);
-        if l + 2 > usize::from(self.depth) {
-            return true;
-        }
-        let slots = if self.rho == 2 { 0xFF } else { (1 << 27) - 1 };
-        let mut below = u64::from(self.group(level, index));
-        for k in first..first.saturating_add(n) {
-            below += u64::from((self.mask(level + 1, k) & slots).count_ones());
-        }
-        let end = if index + 1 < self.levels[l].count {
-            self.group(level, index + 1)
-        } else {
-            self.levels[l + 2].count
-        };
-        below == u64::from(end)
-    }
-
-    /// Every block of `ranges`, once each in order.
-    fn blocks(&self, ranges: &Ranges, mut f: impl FnMut(usize)) {
-        let log2 = self.cache.log2;
-        let mut prev = usize::MAX;
-        for &(off, len) in ranges {
-            if len == 0 {
-                continue;
-            }
-            let (a, z) = (off >> log2, (off + len - 1) >> log2);
-            for b in a..=z {
-                let b = b as usize;
-                if b != prev {
-                    f(b);
-                    prev = b;
-                }
-            }
-        }
-    }
-
-    fn resident(&mut self, ranges: &Ranges) -> bool {
-        let mut all = true;
-        let mut touch = [usize::MAX; 8];
-        let mut n = 0;
-        self.blocks(ranges, |b| {
-            if n < touch.len() {
-                touch[n] = b;
-                n += 1;
-            } else {
-                all = false;
-            }
-        });
-        let stamp = self.pass.stamp;
-        for &b in &touch[..n] {
-            if self.pass.phase == Phase::Lookahead
-                && self.cache.used(b).is_some_and(|u| u != stamp)
-                && self.unpinned(b)
-            {
-                self.pass.kept += 1;
-            }
-            all &= self.cache.touch(b, stamp);
-        }
-        all
-    }
-
-    /// Whether block `b` may be evicted (its class is not pinned).
-    fn unpinned(&self, b: usize) -> bool {
-        self.cache
-            .blocks
-            .get(b)
-            .is_some_and(|e| i16::from(e.class) > self.cache.pinned)
-    }
-
-    /// The pass stops drawing at cell `index` of `level`, whose children are absent: the next pass
-    /// resumes there. The blocks of the descents down to it are kept for that pass.
-    fn stop_at(&mut self, level: u8, index: u32) {
-        let l = usize::from(level);
-        for k in 0..l {
-            self.pass.path[k] = self.pass.stack[k].0;
-        }
-        self.pass.path[l] = index;
-        self.pass.stop = Some(level);
-        self.pass.phase = Phase::Lookahead;
-        self.pass.drawing.set(false);
-        self.pass.stamp = self.frame;
-        for k in 0..l {
-            let (i, first, n) = self.pass.stack[k];
-            let r = self.ranges(k as u8 + 1, first, n, Some(i));
-            self.resident(&r);
-        }
-    }
-
-    fn request(&mut self, ranges: &Ranges, priority: u32) {
-        let mut want = [usize::MAX; 8];
-        let mut n = 0;
-        self.blocks(ranges, |b| {
-            if n < want.len() {
-                want[n] = b;
-                n += 1;
-            }
-        });
-        for &b in &want[..n] {
-            // A pass reads in file order (what an SD card serves best), its stop first.
-            let p = match self.pass.phase {
-                Phase::Lookahead if priority != ROOT_PRIORITY => {
-                    u32::MAX - 1 - (b as u32).min(u32::MAX - 2)
-                }
-                _ => priority,
-            };
-            if self.push(b, p) && self.pass.phase == Phase::Lookahead {
-                self.pass.kept += 1;
-            }
-        }
-        if self.pass.phase == Phase::Lookahead && self.pass.kept >= self.pass.room {
-            self.pass.phase = Phase::Done;
-        }
-    }
-
-    /// Queues block `b` with `priority`, raising it if already queued (a block's priority is its
-    /// best node's, §3.4); when the queue is full the lowest request makes room or this one is
-    /// dropped.
-    /// Returns whether the block was newly queued.
-    fn push(&mut self, b: usize, priority: u32) -> bool {
-        let Some(e) = self.cache.blocks.get(b) else {
-            *self.dropped += 1; // outside the file: a damaged directory; never converges
-            return false;
-        };
-        if e.slot != NO_SLOT {
-            return false;
-        }
-        if e.queued != NOT_QUEUED {
-            let r = &mut self.queue[usize::from(e.queued)];
-            r.priority = r.priority.max(priority);
-            return false;
-        }
-        let req = Request {
-            priority,
-            block: b as u32,
-        };
-        if self.queue.push(req).is_ok() {
-            self.cache.blocks[b].queued = (self.queue.len() - 1) as u16;
-            return true;
-        }
-        let (i, low) = self
-            .queue
-            .iter()
-            .enumerate()
-            .min_by_key(|(_, r)| r.priority)
-            .map(|(i, r)| (i, *r))
-            .expect("a full queue is not empty");
-        *self.dropped += 1;
-        if priority > low.priority {
-            self.cache.blocks[low.block as usize].queued = NOT_QUEUED;
-            self.queue[i] = req;
-            self.cache.blocks[b].queued = i as u16;
-        }
-        false
-    }
-
-    #[inline]
-    fn read<const N: usize>(&self, off: u64) -> [u8; N] {
-        match self.cache.bytes(off, N) {
-            Some(b) => {
-                let mut out = [0u8; N];
-                out.copy_from_slice(b);
-                out
-            }
-            None => [0; N],
-        }
-    }
-}
-
-impl NodeData for StreamNodes<'_, '_, '_> {
-    const STREAMED: bool = true;
-
-    fn shape(&self) -> (u8, u8) {
-        (self.rho, self.depth)
-    }
-
-    #[inline]
-    fn attr(&self, level: u8, i: u32) -> u16 {
-        let l = &self.levels[usize::from(level)];
-        if i >= l.count {
-            return 0;
-        }
-        u16::from_le_bytes(self.read(l.attr + 2 * u64::from(i)))
-    }
-
-    #[inline]
-    fn mask(&self, level: u8, i: u32) -> u32 {
-        let l = &self.levels[usize::from(level)];
-        if i >= l.count || l.mask == 0 {
-            return 0;
-        }
-        if self.rho == 2 {
-            u32::from(self.read::<1>(l.mask + u64::from(i))[0])
-        } else {
-            u32::from_le_bytes(self.read(l.mask + 4 * u64::from(i)))
-        }
-    }
-
-    #[inline]
-    fn group(&self, level: u8, i: u32) -> u32 {
-        let l = &self.levels[usize::from(level)];
-        if i >= l.count || l.group == 0 {
-            return 0;
-        }
-        u32::from_le_bytes(self.read(l.group + 4 * u64::from(i)))
-    }
-
-    fn children_resident(&mut self, level: u8, index: u32, first_child: u32, n: u32) -> bool {
-        if !self.claim(level + 1, first_child, n) {
-            *self.inconsistent += 1;
-            return false;
-        }
-        let r = self.ranges(level + 1, first_child, n, Some(index));
-        if !self.resident(&r) {
-            if self.pass.phase == Phase::Draw {
-                self.stop_at(level, index);
-                self.pass.stopping = true;
-                // What of the stop's own blocks is here stays for the next pass too.
-                self.resident(&r);
-            }
-            return false;
-        }
-        if !self.group_consistent(level, index, first_child, n) {
-            *self.inconsistent += 1;
-            return false;
-        }
-        if self.pass.phase == Phase::Lookahead {
-            // What the lookahead keeps must leave room for what it queues: stop when full.
-            self.pass.lookahead = self.pass.lookahead.saturating_sub(1);
-            if self.pass.lookahead == 0 || self.pass.kept >= self.pass.room {
-                self.pass.phase = Phase::Done;
-            }
-        }
-        if let Some(e) = self.pass.stack.get_mut(usize::from(level)) {
-            *e = (index, first_child, n);
-        }
-        true
-    }
-
-    #[inline]
-    fn skip(&mut self, level: u8, index: u32) -> bool {
-        match self.pass.phase {
-            Phase::Progressive => false,
-            Phase::Done => true,
-            Phase::Draw | Phase::Lookahead => match self.pass.resume.level {
-                Some(c) if level <= c => index < self.pass.resume.path[usize::from(level)],
-                _ => false,
-            },
-        }
-    }
-
-    fn request_children(
-        &mut self,
-        level: u8,
-        index: u32,
-        first_child: u32,
-        n: u32,
-        size_q8: i32,
-        y_q8: i32,
-    ) {
-        let r = self.ranges(level + 1, first_child, n, Some(index));
-        let priority = if core::mem::take(&mut self.pass.stopping) {
-            ROOT_PRIORITY
-        } else {
-            stream_priority(size_q8, y_q8)
-        };
-        self.request(&r, priority);
     }
 }
 

@@ -4,6 +4,9 @@
 //! (no_std, validate once, then no accessor can panic) and `write` produces it (`bake` feature).
 #![doc = include_str!("FORMAT.md")]
 
+pub mod brick;
+pub(crate) mod bricked;
+mod error;
 pub mod frame;
 pub mod read;
 pub mod traverse;
@@ -18,9 +21,11 @@ pub use traverse::{
 
 /// File magic.
 pub const MAGIC: [u8; 4] = crate::format::TG_MAGIC;
-/// Current format version (2: normal cones, [`FLAG_CONES`]). Version 1 files, which have no cones,
-/// are read too.
-pub const VERSION: u16 = 2;
+/// Current format version (3: the deep levels in bricks, FORMAT.md "Bricks"). Versions 1 (no
+/// cones) and 2 (level-ordered) are read too, resident; streaming needs version 3.
+pub const VERSION: u16 = 3;
+/// The first version with bricks (and the brick fields of the header).
+pub const VERSION_BRICKS: u16 = 3;
 /// Deepest supported grid (levels 0..=MAX_DEPTH).
 pub const MAX_DEPTH: u8 = 10;
 /// Number of level directory entries a reader keeps.
@@ -43,6 +48,10 @@ pub const FLAG_PRECISE: u16 = 4;
 pub const PRECISE_BYTES: usize = 80;
 /// First bit of the normal-cone class in a ρ = 3 child mask.
 pub const CONE_SHIFT: u32 = 27;
+/// Byte offset of the brick level in block 0 (version 3).
+pub const BRICK_LEVEL_OFFSET: usize = 13;
+/// Byte offset of the brick count and, 4 bytes further, of the brick table's byte offset (version 3).
+pub const BRICKS_OFFSET: usize = 40;
 /// Byte offset of the level directory in block 0.
 pub const DIRECTORY_OFFSET: usize = 72;
 /// Byte offset of the bounding box in block 0.

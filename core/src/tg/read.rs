@@ -1,178 +1,15 @@
 //! Reading `.tg` files: a raw layer of bounds-checked little-endian reads, then [`TriGrid`], a view
 //! that is validated once by [`TriGrid::open`] and whose accessors cannot panic afterwards.
 
+use super::brick::{self, Array, Brick, BrickEntry};
 use super::{
-    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, CONE_SHIFT, DIRECTORY_ENTRY,
-    DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAGIC, MAX_CELLS_PER_AXIS, MAX_DEPTH,
-    MAX_LEVELS, PRECISE_BYTES, VERSION,
+    mask_bytes, ARRAY_ALIGN, BLOCK_LOG2_RANGE, BOUNDS_OFFSET, BRICKS_OFFSET, BRICK_LEVEL_OFFSET,
+    CONE_SHIFT, DIRECTORY_ENTRY, DIRECTORY_OFFSET, FLAG_COLOR, FLAG_CONES, FLAG_PRECISE, MAGIC,
+    MAX_CELLS_PER_AXIS, MAX_DEPTH, MAX_LEVELS, PRECISE_BYTES, VERSION, VERSION_BRICKS,
 };
 use crate::crc::crc32;
 
-/// What is wrong with a `.tg` file. Each variant carries the offending value.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum TgError {
-    /// Shorter than one block (or than the smallest block).
-    TooShort(usize),
-    /// The first four bytes are not `PSTG`.
-    BadMagic([u8; 4]),
-    /// A version this reader does not know.
-    UnsupportedVersion(u16),
-    /// Unknown bits in the flags.
-    UnsupportedFlags(u16),
-    /// ρ outside 2..=5.
-    UnsupportedRho(u8),
-    /// Depth above [`MAX_DEPTH`] or ρ^depth above 2²⁴.
-    DepthTooLarge(u8),
-    /// Normal bits other than 13.
-    UnsupportedNormalBits(u8),
-    /// Material bits above 3.
-    UnsupportedMaterialBits(u8),
-    /// `block_log2` outside 9..=16.
-    UnsupportedBlockSize(u8),
-    /// A root cube or bounding box number is not finite, the side is not positive, a corner
-    /// coordinate is more than [`MAX_CORNER_SIDES`] sides from 0, a bounding box minimum exceeds its
-    /// maximum, or the bounding box leaves the root cube.
-    BadRootCube {
-        /// Byte offset of the offending `f32` in the header (16..=28 root cube, 48..=68 bounds).
-        offset: u8,
-    },
-    /// The precise root cube and bounds ([`FLAG_PRECISE`]) do not fit the header block, or one of
-    /// its numbers is not finite, the side is not positive, the corner is more than
-    /// [`MAX_CORNER_SIDES`] sides from 0, the box is inverted or leaves the cube.
-    BadPrecise {
-        /// Byte offset of the offending `f64` (or of the extension, when it does not fit) in the
-        /// header.
-        offset: u16,
-    },
-    /// A reserved header byte is not 0.
-    ReservedNotZero {
-        /// Its byte offset in the header.
-        offset: u16,
-    },
-    /// The file length is not the header's block count times the block size.
-    LengthMismatch {
-        /// Bytes the header announces.
-        expected: u64,
-        /// Bytes present.
-        found: u64,
-    },
-    /// The CRC-table block count does not fit the header or the file.
-    BadCrcTable(u32),
-    /// A block's CRC-32 does not match (block 0: the header).
-    BlockCrc(u32),
-    /// A level's array offset is misaligned, overlaps the header or runs past the end, or is set for
-    /// an array the level must not have.
-    BadArray {
-        /// The level.
-        level: u8,
-        /// The offending byte offset from the directory.
-        offset: u32,
-    },
-    /// A count does not match what the level above announces (level 0 must hold 1 sample).
-    CountMismatch {
-        /// The level.
-        level: u8,
-        /// The count implied by the level above.
-        expected: u32,
-        /// The count in the directory.
-        found: u32,
-    },
-    /// A child mask is empty or has bits at or above ρ³.
-    BadMask {
-        /// The level of the cell.
-        level: u8,
-        /// Its index in the level.
-        index: u32,
-    },
-    /// A group entry (one pointer per sibling group) is not the running count it stands for.
-    BadGroup {
-        /// The level of the cell.
-        level: u8,
-        /// Its index in the level.
-        index: u32,
-    },
-}
-
-impl core::error::Error for TgError {}
-
-impl core::fmt::Display for TgError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match *self {
-            TgError::TooShort(n) => write!(f, "file is {n} bytes, shorter than one block"),
-            TgError::BadMagic(m) => write!(f, "not a .tg file (magic {m:02x?}, expected \"PSTG\")"),
-            TgError::UnsupportedVersion(v) => write!(
-                f,
-                "unsupported .tg version {v} (this reader knows {VERSION})"
-            ),
-            TgError::UnsupportedFlags(x) => write!(f, "unknown header flags {x:#06x}"),
-            TgError::UnsupportedRho(r) => write!(f, "unsupported rho {r} (2..=5)"),
-            TgError::DepthTooLarge(d) => write!(
-                f,
-                "depth {d} is too large (at most {MAX_DEPTH} and rho^depth <= 2^24)"
-            ),
-            TgError::UnsupportedNormalBits(b) => write!(f, "unsupported normal bits {b} (13)"),
-            TgError::UnsupportedMaterialBits(b) => {
-                write!(f, "unsupported material bits {b} (0..=3)")
-            }
-            TgError::UnsupportedBlockSize(b) => {
-                write!(f, "unsupported block size 2^{b} (2^9..=2^16)")
-            }
-            TgError::BadRootCube { offset } => write!(
-                f,
-                "header field at byte {offset} ({}): the root cube or bounding box is not finite, \
-                 has no size, is inverted, or lies outside the cube, or the cube is lost in its \
-                 corner's rounding",
-                match offset {
-                    16..=27 => "root cube corner",
-                    28..=31 => "root cube side",
-                    _ => "bounding box",
-                }
-            ),
-            TgError::BadPrecise { offset } => write!(
-                f,
-                "header field at byte {offset} (precise root cube or bounds, f64): missing, not \
-                 finite, no size, inverted, outside the cube or lost in its corner's rounding"
-            ),
-            TgError::ReservedNotZero { offset } => {
-                write!(f, "reserved header byte {offset} is not 0")
-            }
-            TgError::LengthMismatch { expected, found } => {
-                write!(
-                    f,
-                    "file is {found} bytes but the header announces {expected}"
-                )
-            }
-            TgError::BadCrcTable(t) => write!(f, "CRC table of {t} blocks does not fit"),
-            TgError::BlockCrc(0) => write!(f, "header block fails its CRC check"),
-            TgError::BlockCrc(b) => write!(f, "block {b} fails its CRC check"),
-            TgError::BadArray { level, offset } => write!(
-                f,
-                "level {level}: the array at byte {offset} is misaligned, lies outside the data \
-                 blocks or should be absent"
-            ),
-            TgError::CountMismatch {
-                level,
-                expected,
-                found,
-            } => {
-                write!(
-                    f,
-                    "level {level}: {found} samples, but the level above announces {expected}"
-                )
-            }
-            TgError::BadMask { level, index } => {
-                write!(f, "level {level}: cell {index} has an invalid child mask")
-            }
-            TgError::BadGroup { level, index } => {
-                write!(
-                    f,
-                    "level {level}: cell {index} has a wrong sibling-group pointer"
-                )
-            }
-        }
-    }
-}
+pub use super::error::TgError;
 
 /// Largest `|corner coordinate| / side` of a root cube (2^32).
 pub const MAX_CORNER_SIDES: f64 = 4_294_967_296.0;
@@ -214,6 +51,12 @@ pub struct Header {
     pub side64: f64,
     /// The bounding box as views use it ([`Header::origin64`]).
     pub bounds64: [[f64; 3]; 2],
+    /// The level `R` whose cells' subtrees are bricked (version 3 with bricks; 0 otherwise).
+    pub brick_level: u8,
+    /// Bricks in the file (version 3; 0: none, every level is one array as in version 2).
+    pub bricks: u32,
+    /// Byte offset of the brick table (0 without bricks).
+    pub brick_table: u32,
 }
 
 impl Header {
@@ -240,6 +83,29 @@ impl Header {
     /// Bytes per child mask.
     pub fn mask_bytes(&self) -> u32 {
         mask_bytes(self.rho)
+    }
+    /// Whether the levels below [`Header::brick_level`] are in bricks (FORMAT.md "Bricks").
+    pub fn bricked(&self) -> bool {
+        self.bricks > 0
+    }
+    /// Whether level `level`'s arrays are in bricks rather than in the level directory: the levels
+    /// between the brick level and the leaves (and the brick level's groups).
+    pub fn in_bricks(&self, level: u8) -> bool {
+        self.bricked() && level > self.brick_level && level < self.depth
+    }
+    /// Whether level `level`'s group array is in the level directory: a level with grandchildren,
+    /// above the brick level in a bricked file.
+    pub fn group_listed(&self, level: u8) -> bool {
+        level + 1 < self.depth && (!self.bricked() || level < self.brick_level)
+    }
+    /// The last level whose arrays are in the level directory, every one of them but, in a bricked
+    /// file, the group array of that level (the head: levels `0..=head_level()`).
+    pub fn head_level(&self) -> u8 {
+        if self.bricked() {
+            self.brick_level
+        } else {
+            self.depth
+        }
     }
 }
 
@@ -377,8 +243,11 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     if material_bits > 3 {
         return Err(TgError::UnsupportedMaterialBits(material_bits));
     }
-    // Reserved bytes must be 0, so that a later version can give them a meaning.
-    for offset in (13..16).chain(40..48) {
+    // Reserved bytes must be 0, so that a later version can give them a meaning (version 3 gave
+    // bytes 13 and 40..48 one: the bricks).
+    let v3 = version >= VERSION_BRICKS;
+    let reserved = if v3 { 14..16 } else { 13..16 };
+    for offset in reserved.chain(if v3 { 48..48 } else { 40..48 }) {
         if u8_at(block, offset).ok_or(short)? != 0 {
             return Err(TgError::ReservedNotZero {
                 offset: offset as u16,
@@ -434,6 +303,15 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
     }
     let blocks = u32_at(block, 32).ok_or(short)?;
     let crc_table_blocks = u32_at(block, 36).ok_or(short)?;
+    let (brick_level, bricks, brick_table) = if v3 {
+        (
+            u8_at(block, BRICK_LEVEL_OFFSET).ok_or(short)?,
+            u32_at(block, BRICKS_OFFSET).ok_or(short)?,
+            u32_at(block, BRICKS_OFFSET + 4).ok_or(short)?,
+        )
+    } else {
+        (0, 0, 0)
+    };
     let mut header = Header {
         version,
         flags,
@@ -450,6 +328,9 @@ pub fn parse_header(block0: &[u8]) -> Result<(Header, [LevelDir; MAX_LEVELS]), T
         origin64: origin.map(f64::from),
         side64: side_f64,
         bounds64: bounds.map(|c| c.map(f64::from)),
+        brick_level,
+        bricks,
+        brick_table,
     };
     // The table-block CRC list must fit in block 0, and the table must cover every block.
     let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * header.levels();
@@ -536,17 +417,43 @@ fn read_precise(block: &[u8], at: usize, header: &mut Header) -> Result<(), TgEr
 }
 
 /// Every array of every level must be present exactly when the format says, aligned, after the CRC
-/// table and inside the file.
+/// table and inside the file; in a bricked file (version 3), the brick level and count in range and
+/// the brick table inside the data blocks.
 fn check_directory(h: &Header, levels: &[LevelDir; MAX_LEVELS]) -> Result<(), TgError> {
     let data_start = (u64::from(h.crc_table_blocks) + 1) << h.block_log2;
     let file_end = u64::from(h.blocks) << h.block_log2;
+    if h.bricked() {
+        // At least one level between the brick level and the leaves; at most one brick per block.
+        let table_end = u64::from(h.brick_table)
+            + u64::from(h.bricks) * brick::entry_bytes(h.brick_level, h.depth) as u64;
+        if u16::from(h.brick_level) + 2 > u16::from(h.depth)
+            || h.bricks >= h.blocks
+            || !h.brick_table.is_multiple_of(ARRAY_ALIGN)
+            || u64::from(h.brick_table) < data_start
+            || table_end > file_end
+        {
+            return Err(TgError::BadBricks {
+                level: h.brick_level,
+                bricks: h.bricks,
+            });
+        }
+    } else if h.brick_level != 0 || h.brick_table != 0 {
+        return Err(TgError::BadBricks {
+            level: h.brick_level,
+            bricks: h.bricks,
+        });
+    }
+    let head = h.head_level();
     for (l, dir) in levels.iter().enumerate().take(h.levels()) {
         let level = l as u8;
+        // Version 3 keeps the arrays of the levels between the brick level and the leaves, and the
+        // brick level's groups, in the bricks.
+        let listed = level <= head || level == h.depth;
         let arrays = [
-            (dir.attr_off, 2, true),
-            (dir.color_off, 2, h.has_color()),
-            (dir.mask_off, h.mask_bytes(), level < h.depth),
-            (dir.group_off, 4, level + 1 < h.depth),
+            (dir.attr_off, 2, listed),
+            (dir.color_off, 2, listed && h.has_color()),
+            (dir.mask_off, h.mask_bytes(), listed && level < h.depth),
+            (dir.group_off, 4, listed && h.group_listed(level)),
         ];
         for (offset, size, present) in arrays {
             let bad = TgError::BadArray { level, offset };
@@ -587,7 +494,7 @@ fn spare_free(h: &Header) -> u32 {
 /// Whether a stored mask word is one the format allows at a level below the depth: at least one
 /// child, no bit at or above [`spare_free`].
 /// The child-slot bits of a mask word (the ρ³ low bits; cone classes above them are not children).
-fn slot_bits(h: &Header, word: u128) -> u128 {
+pub(crate) fn slot_bits(h: &Header, word: u128) -> u128 {
     let cells = u32::from(h.rho).pow(3);
     if cells < 128 {
         word & ((1u128 << cells) - 1)
@@ -596,7 +503,7 @@ fn slot_bits(h: &Header, word: u128) -> u128 {
     }
 }
 
-fn mask_word_ok(h: &Header, word: u128) -> bool {
+pub(crate) fn mask_word_ok(h: &Header, word: u128) -> bool {
     let free = spare_free(h);
     slot_bits(h, word) != 0 && (free >= 128 || word >> free == 0)
 }
@@ -765,44 +672,99 @@ impl<'a> TriGrid<'a> {
         self.bytes.get(b as usize * bs..(b as usize + 1) * bs)
     }
 
-    /// Recomputes every count and group pointer from the masks (FORMAT.md "Validation").
+    /// Recomputes every count and group pointer from the masks (FORMAT.md "Validation"): the head,
+    /// then, in a bricked file, the brick table and every brick.
     fn check_structure(&self) -> Result<(), TgError> {
-        let h = self.header;
-        for l in 0..h.depth {
-            let (level, dir) = (l, self.levels[usize::from(l)]);
-            let mut children = 0u32;
-            for i in 0..dir.count {
-                let m = self.mask(l, i);
-                if !mask_word_ok(&h, self.mask_word(l, i)) {
-                    return Err(TgError::BadMask { level, index: i });
-                }
-                children = children.saturating_add(m.count_ones());
-            }
-            let found = self.levels[usize::from(l) + 1].count;
-            if children != found {
-                return Err(TgError::CountMismatch {
-                    level: l + 1,
-                    expected: children,
-                    found,
-                });
-            }
-        }
-        // group[p] at level L = first grandchild of p = running count of masks at level L+1.
-        for l in 0..h.depth.saturating_sub(1) {
-            let mut child = 0u32; // index at L+1 of p's first child
-            let mut grandchild = 0u32; // index at L+2 of p's first grandchild
-            for p in 0..self.levels[usize::from(l)].count {
-                if self.group(l, p) != grandchild {
-                    return Err(TgError::BadGroup { level: l, index: p });
-                }
-                let n = self.mask(l, p).count_ones();
-                for c in child..child + n {
-                    grandchild += self.mask(l + 1, c).count_ones();
-                }
-                child += n;
+        let (h, levels) = (&self.header, &self.levels);
+        let mut read = |off: u64, n: usize| brick::slice_word(self.bytes, off, n);
+        brick::check_head(h, levels, &mut read)?;
+        if h.bricked() {
+            brick::check_table(h, levels, &mut read)?;
+            for b in 0..h.bricks {
+                let brick = self.brick(b).ok_or(TgError::BadBrickEntry { brick: b })?;
+                brick::check_brick(h, levels, &brick, &mut read)?;
             }
         }
         Ok(())
+    }
+
+    /// The brick table's bytes (empty without bricks).
+    pub fn brick_table(&self) -> &'a [u8] {
+        let h = &self.header;
+        let at = h.brick_table as usize;
+        let len = brick::entry_bytes(h.brick_level, h.depth) * h.bricks as usize;
+        self.bytes.get(at..at + len).unwrap_or(&[])
+    }
+
+    /// Entry `b` of the brick table (FORMAT.md "Bricks"), when the file has it.
+    pub fn brick_entry(&self, b: u32) -> Option<BrickEntry> {
+        let h = &self.header;
+        if b >= h.bricks {
+            return None;
+        }
+        let size = brick::entry_bytes(h.brick_level, h.depth);
+        let at = h.brick_table as usize + size * b as usize;
+        BrickEntry::parse(h, self.bytes.get(at..at + size)?)
+    }
+
+    /// Brick `b`: its cells per level and where its arrays lie.
+    pub fn brick(&self, b: u32) -> Option<Brick> {
+        let e = self.brick_entry(b)?;
+        let next = self.brick_entry(b + 1);
+        let end = brick::band_end(&self.header, &self.levels);
+        Brick::of(&self.header, &self.levels, b, &e, next.as_ref(), end).ok()
+    }
+
+    /// The brick holding cell `i` of `level` (the brick level or below, above the leaves), by a
+    /// binary search of the table.
+    pub fn brick_at(&self, level: u8, i: u32) -> Option<Brick> {
+        let h = &self.header;
+        if !h.bricked() || level < h.brick_level || level >= h.depth {
+            return None;
+        }
+        let key = |b: u32| {
+            self.brick_entry(b).map(|e| {
+                if level == h.brick_level {
+                    e.first_cell
+                } else {
+                    e.first[usize::from(level)]
+                }
+            })
+        };
+        let (mut lo, mut hi) = (0u32, h.bricks);
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if key(mid)? <= i {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        self.brick(lo)
+    }
+
+    /// Byte offset of element `i` of `array` at `level`: in the level directory, or in its brick
+    /// (`None` when the file has no such element).
+    pub fn element_offset(&self, level: u8, array: Array, i: u32) -> Option<usize> {
+        let h = &self.header;
+        let dir = self.level(level);
+        let in_brick =
+            h.in_bricks(level) || (array == Array::Group && h.bricked() && level == h.brick_level);
+        let off = if in_brick {
+            self.brick_at(level, i)?.offset(h, level, array, i)?
+        } else {
+            let (base, size) = match array {
+                Array::Attr => (dir.attr_off, 2),
+                Array::Color => (dir.color_off, 2),
+                Array::Mask => (dir.mask_off, h.mask_bytes()),
+                Array::Group => (dir.group_off, 4),
+            };
+            if base == 0 || i >= dir.count {
+                return None;
+            }
+            u64::from(base) + u64::from(size) * u64::from(i)
+        };
+        usize::try_from(off).ok()
     }
 
     /// The header.
@@ -844,30 +806,21 @@ impl<'a> TriGrid<'a> {
     /// Attribute (normal code and material) of sample `i` at `level`; 0 when out of range.
     #[inline]
     pub fn attr(&self, level: u8, i: u32) -> u16 {
-        let off = self.level(level).attr_off as usize + 2 * i as usize;
-        u16_at(self.bytes, off).unwrap_or(0)
+        self.element_offset(level, Array::Attr, i)
+            .and_then(|at| u16_at(self.bytes, at))
+            .unwrap_or(0)
     }
 
     /// RGB565 colour of sample `i` at `level`, when the file has colours.
     #[inline]
     pub fn color(&self, level: u8, i: u32) -> Option<u16> {
-        let dir = self.level(level);
-        if dir.color_off == 0 {
-            return None;
-        }
-        u16_at(self.bytes, dir.color_off as usize + 2 * i as usize)
+        u16_at(self.bytes, self.element_offset(level, Array::Color, i)?)
     }
 
     /// Child mask of cell `i` at `level` (bit `s` = slot `s` non-empty); 0 at the leaf level.
     #[inline]
     pub fn mask(&self, level: u8, i: u32) -> u128 {
-        let cells = u32::from(self.header.rho).pow(3);
-        let word = self.mask_word(level, i);
-        if cells < 128 {
-            word & ((1u128 << cells) - 1)
-        } else {
-            word
-        }
+        slot_bits(&self.header, self.mask_word(level, i))
     }
 
     /// Normal-cone class of cell `i` at `level` (FORMAT.md; 0 when the file has no cones or at the
@@ -884,46 +837,25 @@ impl<'a> TriGrid<'a> {
     /// hold.
     #[inline]
     fn mask_word(&self, level: u8, i: u32) -> u128 {
-        let dir = self.level(level);
-        if dir.mask_off == 0 {
-            return 0;
-        }
         let n = self.header.mask_bytes() as usize;
-        let at = dir.mask_off as usize + n * i as usize;
-        let mut word = [0u8; 16];
-        match self.bytes.get(at..at + n) {
-            Some(src) => word[..n].copy_from_slice(src),
-            None => return 0,
-        }
-        u128::from_le_bytes(word)
+        self.element_offset(level, Array::Mask, i)
+            .and_then(|at| brick::slice_word(self.bytes, at as u64, n))
+            .unwrap_or(0)
     }
 
-    /// The stored child-mask word for ρ ≤ 3, as a `u32` (the traversal's fast path): the child
-    /// bits and, for ρ = 3, the cone class above them.
+    /// The stored child-mask word for ρ ≤ 3, as a `u32`: the child bits and, for ρ = 3, the cone
+    /// class above them.
     #[inline]
     pub fn mask32(&self, level: u8, i: u32) -> u32 {
-        let dir = self.level(level);
-        if dir.mask_off == 0 {
-            return 0;
-        }
-        match self.header.rho {
-            2 => self
-                .bytes
-                .get(dir.mask_off as usize + i as usize)
-                .copied()
-                .map_or(0, u32::from),
-            _ => u32_at(self.bytes, dir.mask_off as usize + 4 * i as usize).unwrap_or(0),
-        }
+        self.mask_word(level, i) as u32
     }
 
     /// Group entry of cell `i` at `level`: the index of its first grandchild at `level + 2`.
     #[inline]
     pub fn group(&self, level: u8, i: u32) -> u32 {
-        let dir = self.level(level);
-        if dir.group_off == 0 {
-            return 0;
-        }
-        u32_at(self.bytes, dir.group_off as usize + 4 * i as usize).unwrap_or(0)
+        self.element_offset(level, Array::Group, i)
+            .and_then(|at| u32_at(self.bytes, at))
+            .unwrap_or(0)
     }
 
     /// Total number of samples, interior and leaf.

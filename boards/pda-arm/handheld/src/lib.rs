@@ -45,6 +45,7 @@ use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
 use pocketsplat_core::stream::{ChunkSource, MemSource, OutOfRange, StreamError, TgStream};
+use pocketsplat_core::tg::TgError;
 use pocketsplat_pda::stream::{
     draw_error_marker, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES, MAX_PASSES,
     REFINE_IO_BUDGET_BYTES,
@@ -215,6 +216,8 @@ pub enum LoadError {
     Invalid,
     /// The file has more blocks than [`MAX_FILE_BLOCKS`] (its count).
     TooLarge(u32),
+    /// A `.tg` of a version that cannot be streamed (1 or 2): it must be migrated to version 3.
+    OldVersion(u16),
 }
 
 impl core::fmt::Display for LoadError {
@@ -226,6 +229,10 @@ impl core::fmt::Display for LoadError {
             ),
             LoadError::Read => write!(f, "{MODEL_FILE}: the card\nfailed to read it."),
             LoadError::Invalid => write!(f, "{MODEL_FILE} is not a\nvalid tri-grid."),
+            LoadError::OldVersion(v) => write!(
+                f,
+                "{MODEL_FILE} is version {v}.\nConvert it on a PC:\npocketsplat migrate"
+            ),
             LoadError::TooLarge(n) => write!(
                 f,
                 "{MODEL_FILE}: {n} blocks,\nmore than the {MAX_FILE_BLOCKS}\nthis viewer holds."
@@ -316,6 +323,9 @@ pub fn open_stream<'a, C: ChunkSource + ?Sized>(
         match e {
             StreamError::Device(_) => LoadError::Read,
             StreamError::TooManyBlocks { blocks, .. } => LoadError::TooLarge(blocks),
+            StreamError::Format(TgError::NotStreamable { version }) => {
+                LoadError::OldVersion(version)
+            }
             StreamError::Format(_) | StreamError::CacheTooSmall { .. } => LoadError::Invalid,
         }
     })

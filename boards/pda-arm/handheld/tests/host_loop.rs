@@ -390,3 +390,28 @@ fn a_pulled_card_leaves_the_marker_and_the_loop_running() {
         run.bytes_read
     );
 }
+
+/// A version 2 `MODEL.TG` (as baked before version 3) cannot be streamed: opening it says which
+/// version it is, for the panel's message to say how to convert it.
+#[test]
+fn a_version_2_model_is_refused_with_its_version() {
+    use pocketsplat_core::tg::write::{write_tg_as, Layout};
+    use pocketsplat_handheld::LoadError;
+    let mesh = pocketsplat_sim::demo::trefoil(48, 6, 0.45);
+    let (grid, v3) = pocketsplat_sim::bake::bake_mesh(
+        &mesh,
+        pocketsplat_core::bake::BakeOptions { rho: 3, depth: 4 },
+        12,
+        false,
+    )
+    .unwrap();
+    let v2 = write_tg_as(&grid, 12, Layout::Version2).unwrap();
+    let mut tables = Box::new(StreamTables::EMPTY);
+    let mut cache = Box::new([0u8; CACHE_BYTES]);
+    let mut src = pocketsplat_core::stream::MemSource::new(&v2);
+    let err = open_stream(&mut src, &mut cache, &mut tables).err();
+    assert_eq!(err, Some(LoadError::OldVersion(2)));
+    assert!(err.unwrap().to_string().contains("pocketsplat migrate"));
+    let mut src = pocketsplat_core::stream::MemSource::new(&v3);
+    assert!(open_stream(&mut src, &mut cache, &mut tables).is_ok());
+}

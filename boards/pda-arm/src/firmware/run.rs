@@ -13,7 +13,7 @@ use embedded_sdmmc::{Mode, VolumeIdx};
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
 #[cfg(feature = "stream")]
-use pocketsplat_pda::stream::{stream_frames, StreamMemory};
+use pocketsplat_pda::stream::StreamMemory;
 
 #[cfg(feature = "stream")]
 use super::disk::{HostDisk, IMAGE};
@@ -161,10 +161,46 @@ pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
 }
 
 /// The model's name in the volume's root directory (8.3).
-#[cfg(feature = "stream")]
+#[cfg(all(feature = "stream", not(feature = "selftest-hostile")))]
 const MODEL_FILE: &str = "BUNNY.TG";
 
-#[cfg(feature = "stream")]
+/// With `selftest-hostile`: streams `H000.TG`, `H001.TG`, … of the image's first volume in turn
+/// until one is missing, one line each (`pocketsplat_pda::hostile`), then `hostile done N`.
+#[cfg(feature = "selftest-hostile")]
+pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
+    use pocketsplat_pda::hostile::{file_name, hostile_run};
+    let disk = match HostDisk::open(IMAGE) {
+        Ok(d) => d,
+        Err(e) => fail(format_args!("image: {e}")),
+    };
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+    let root = match volumes
+        .open_raw_volume(VolumeIdx(0))
+        .and_then(|v| volumes.open_root_dir(v))
+    {
+        Ok(r) => r,
+        Err(e) => fail(format_args!("volume: {e:?}")),
+    };
+    let mut index = 0;
+    loop {
+        let name = file_name(index);
+        let name = core::str::from_utf8(&name).unwrap_or("H000.TG");
+        let Ok(file) = volumes.open_file_in_dir(root, name, Mode::ReadOnly) else {
+            break;
+        };
+        let mut sd = SdFile::new(&volumes, file);
+        let line = hostile_run(index, &mut sd, mem.reborrow(), &mut targets, marks::hit);
+        hprintln!("{}", line);
+        if let Err(e) = volumes.close_file(file) {
+            fail(format_args!("{name}: {e:?}"));
+        }
+        index += 1;
+    }
+    hprintln!("hostile done {}", index);
+}
+
+#[cfg(all(feature = "stream", not(feature = "selftest-hostile")))]
 /// Opens the image, its first FAT volume and [`MODEL_FILE`], and draws the streamed
 /// sequence, one line per frame; any failure to get that far ends the run with a message.
 pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
@@ -201,7 +237,7 @@ pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
     let mut src = pocketsplat_pda::stream::pulled(sd);
     #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
     let mut src = sd;
-    match stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
+    match pocketsplat_pda::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
         hprintln!("{}", f)
     }) {
         Ok(totals) => hprintln!("{}", totals),

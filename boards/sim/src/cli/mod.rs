@@ -9,6 +9,7 @@
 pub mod bake;
 pub mod demo;
 pub mod info;
+pub mod migrate;
 pub mod render;
 pub mod report;
 pub mod view;

@@ -27,12 +27,17 @@ use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
 use pocketsplat_core::scene::{Kind, Pack, Savings, Scene as CoreScene, MAX_SLOTS};
 use pocketsplat_core::shade::Material;
-use pocketsplat_core::tg::write::write_tg;
+use pocketsplat_core::tg::write::{write_tg_as, Layout};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde::Serialize;
 
 use super::{rotation, Anchor, SceneSpec, Source};
 use crate::ply;
+
+/// How a pack's tri-grids are laid out: without bricks (version 3, every level one array). A pack
+/// is drawn in place, never streamed, and the resident walk of a bricked grid costs a few percent
+/// more (README, "Measured"), which the Big Scene's 40 M-instruction frame has no room for.
+const PACK_LAYOUT: Layout = Layout::Unbricked;
 
 /// Changes to a scene's `[bake]` settings, for reports that bake one scene several ways.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -520,12 +525,16 @@ pub fn bake_loaded(
                 }
                 let had_color = grid.levels[0].colors.is_some();
                 let with_color = if had_color {
-                    Some(write_tg(&grid, block_log2).with_context(what)?.len())
+                    Some(
+                        write_tg_as(&grid, block_log2, PACK_LAYOUT)
+                            .with_context(what)?
+                            .len(),
+                    )
                 } else {
                     None
                 };
                 strip_colors(&mut grid);
-                let full = write_tg(&grid, block_log2).with_context(what)?;
+                let full = write_tg_as(&grid, block_log2, PACK_LAYOUT).with_context(what)?;
                 let kept = resolvable_depth(
                     &cameras,
                     &l.placement,
@@ -536,7 +545,8 @@ pub fn bake_loaded(
                     min_cell_px,
                 );
                 let data = if kept < asked {
-                    write_tg(&truncate(&grid, kept), block_log2).with_context(what)?
+                    write_tg_as(&truncate(&grid, kept), block_log2, PACK_LAYOUT)
+                        .with_context(what)?
                 } else {
                     full.clone()
                 };
