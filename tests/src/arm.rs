@@ -22,6 +22,7 @@ use pocketsplat_core::scene::Scene;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
+use pocketsplat_core::tg::write::{write_tg_as, Layout};
 use pocketsplat_pda::scene::{
     render_scene_view, scene_frame_specs, SceneFrameReport, SceneFrameSpec, SceneTable,
     SceneTargets, SCENE_MAP_SIZE,
@@ -425,13 +426,14 @@ pub fn have_qemu() -> bool {
     false
 }
 
-/// The bunny baked at paper level 5 (tri-grid depth 6) in `target/arm/models/bunny-d6.tg`, or `None`
-/// off CI when the scan is missing ([`model`]): [`baked_bunny_as`] [`FileFormat::TriGrid`].
+/// The bunny baked at paper level 5 (tri-grid depth 6) as `pocketsplat bake` bakes it by default
+/// (version 3 with bricks, what a card is streamed from) in `target/arm/models/bunny-d6.tg`, or
+/// `None` off CI when the scan is missing ([`model`]).
 ///
 /// # Errors
 /// When the scan cannot be read or baked, or the file cannot be written.
 pub fn baked_bunny() -> Result<Option<PathBuf>> {
-    baked_bunny_as(FileFormat::TriGrid)
+    baked_bunny_in(FileFormat::TriGrid, Layout::Bricked)
 }
 
 /// The bunny baked in `format` into `target/arm/models/`: a tri-grid at paper level 5 (depth 6,
@@ -442,9 +444,18 @@ pub fn baked_bunny() -> Result<Option<PathBuf>> {
 /// Baked afresh every time (a few seconds), so the file always matches the current baker; written
 /// only when its bytes change, so that cargo does not relink the firmware that includes it.
 ///
+/// The tri-grid is the one a firmware links into flash and draws in place: without bricks
+/// (`pocketsplat bake --layout unbricked`, `bunny-d6-flash.tg`), the layout the resident walk
+/// draws fastest (FORMAT.md "Bricks"); [`baked_bunny`] is the streamed one.
+///
 /// # Errors
 /// When the scan cannot be read or baked, or the file cannot be written.
 pub fn baked_bunny_as(format: FileFormat) -> Result<Option<PathBuf>> {
+    baked_bunny_in(format, Layout::Unbricked)
+}
+
+/// [`baked_bunny_as`] with a tri-grid in `layout`.
+fn baked_bunny_in(format: FileFormat, layout: Layout) -> Result<Option<PathBuf>> {
     static BAKE: Mutex<()> = Mutex::new(());
     let Some(mesh) = model("bun_zipper.ply.gz") else {
         return Ok(None);
@@ -453,13 +464,16 @@ pub fn baked_bunny_as(format: FileFormat) -> Result<Option<PathBuf>> {
     let (name, bytes) = match format {
         FileFormat::TriGrid => {
             let mesh = pocketsplat_sim::ply::load_mesh(&mesh)?;
-            let (_, bytes) = pocketsplat_sim::bake::bake_mesh(
+            let (grid, bytes) = pocketsplat_sim::bake::bake_mesh(
                 &mesh,
                 BakeOptions { rho: 3, depth: 6 },
                 12,
                 false,
             )?;
-            ("bunny-d6.tg", bytes)
+            match layout {
+                Layout::Bricked => ("bunny-d6.tg", bytes),
+                _ => ("bunny-d6-flash.tg", write_tg_as(&grid, 12, layout)?),
+            }
         }
         FileFormat::QSplat => {
             let report = pocketsplat_sim::bake::bake_qs_file(&mesh, &QsBakeOptions::default())?;

@@ -80,13 +80,15 @@ pub fn demo_tg() -> Result<Vec<u8>> {
 }
 
 /// The model the core's documentation and examples draw (`core/examples/data/trefoil.tg`): the demo
-/// trefoil at depth 4 in 512-byte blocks, small enough to link into a firmware example (a test
-/// holds the committed file equal to this bake: `tests/tests/example_model.rs`).
+/// trefoil at depth 4 in 512-byte blocks, small enough to link into a firmware example, without
+/// bricks (`bake --layout unbricked`: a file drawn in place from flash) (a test holds the committed
+/// file equal to this bake: `tests/tests/example_model.rs`).
 ///
 /// # Errors
 /// Never for the built-in model; bake errors are passed on.
 pub fn example_tg() -> Result<Vec<u8>> {
+    use pocketsplat_core::tg::write::{write_tg_as, Layout};
     let mesh = trefoil(300, 16, 0.45);
-    let (_, bytes) = crate::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)?;
-    Ok(bytes)
+    let (grid, _) = crate::bake::bake_mesh(&mesh, BakeOptions { rho: 3, depth: 4 }, 9, false)?;
+    Ok(write_tg_as(&grid, 9, Layout::Unbricked)?)
 }

@@ -6,6 +6,7 @@ use std::time::Instant;
 use anyhow::Result;
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::qs::write::QsBakeOptions;
+use pocketsplat_core::tg::write::{write_tg_as, Layout};
 use pocketsplat_sim::args;
 use pocketsplat_sim::bake::{bake_file_within, bake_qs_file, BakeFormat};
 use pocketsplat_sim::fsutil::write_atomic;
@@ -34,6 +35,12 @@ pub struct BakeArgs {
     /// --block-size do not apply).
     #[arg(long, default_value = "tg", value_parser = super::bake_format())]
     format: BakeFormat,
+    /// How a tri-grid lays out its levels: bricked (version 3, the deep levels in bricks, what
+    /// `render --stream` and the handheld read from an SD card; the default), bricked:LEVEL,
+    /// unbricked (version 3, every level one array: what a firmware drawing the file in place from
+    /// flash walks fastest, ~3.6 % fewer instructions) or v2. `pocketsplat migrate` converts.
+    #[arg(long, default_value = "bricked", value_parser = pocketsplat_sim::migrate::layout)]
+    layout: Layout,
     /// Bake even when the estimate of its memory is over the `bake` limit (see --limits).
     #[arg(long)]
     force: bool,
@@ -74,7 +81,10 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     } else {
         limits::current().bake
     };
-    let report = bake_file_within(mesh, BakeOptions { rho, depth }, block_log2, true, limit)?;
+    let mut report = bake_file_within(mesh, BakeOptions { rho, depth }, block_log2, true, limit)?;
+    if args.layout != Layout::Bricked {
+        report.bytes = write_tg_as(&report.grid, block_log2, args.layout)?;
+    }
     write_atomic(out, &report.bytes)?;
     let leaves = report.grid.levels.last().map_or(0, |l| l.attrs.len());
     let total: usize = report.grid.levels.iter().map(|l| l.attrs.len()).sum();
