@@ -31,7 +31,7 @@ pub enum TgError {
         /// Byte offset of the offending `f32` in the header (16..=28 root cube, 48..=68 bounds).
         offset: u8,
     },
-    /// The precise root cube and bounds ([`FLAG_PRECISE`]) do not fit the header block, or one of
+    /// The precise root cube and bounds ([`FLAG_PRECISE`](super::FLAG_PRECISE)) do not fit the header block, or one of
     /// its numbers is not finite, the side is not positive, the corner is more than
     /// [`MAX_CORNER_SIDES`](super::read::MAX_CORNER_SIDES) sides from 0, the box is inverted or leaves the cube.
     BadPrecise {

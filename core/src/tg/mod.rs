@@ -8,6 +8,8 @@ pub mod brick;
 pub(crate) mod bricked;
 mod error;
 pub mod frame;
+mod hooks;
+mod nodes;
 pub mod read;
 pub mod traverse;
 #[cfg(feature = "bake")]

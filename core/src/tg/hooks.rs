@@ -1,0 +1,136 @@
+//! What a shadow algorithm adds to the tri-grid walk ([`ShadowHooks`], none: [`NoShadows`]) and the
+//! order of the child slots it may ask for ([`SlotOrder`], Duguet §5.3: nearest to the light first).
+#![deny(clippy::float_arithmetic)]
+
+use super::frame::MAX_SLOTS;
+
+/// What a shadow algorithm adds to the walk. Implemented by [`NoShadows`] and, with the `shadows`
+/// feature, by the shadow-map passes in [`crate::shadow`].
+pub trait ShadowHooks {
+    /// A node's light-space position (`()` without shadows).
+    type Pos: Copy;
+    /// Whether the children of a view-visible cell at `level` must be visited in
+    /// [`ShadowHooks::order`] instead of slot order: only where visiting order changes what is in
+    /// the shadow map when a sample is tested. Subtrees only the light sees are always walked in
+    /// slot order: their fills keep the nearer depth, so their order cannot matter.
+    #[inline(always)]
+    fn ordered(&self, _level: usize) -> bool {
+        false
+    }
+    /// Keep walking subtrees the view culls, to fill the shadow map with what they cast.
+    const FILL_CULLED: bool;
+    /// Light-space position of the root cell.
+    fn root(&self) -> Self::Pos;
+    /// Light-space position of child `slot` of a cell at `level - 1` at `parent`.
+    fn child(&self, parent: Self::Pos, level: usize, slot: usize) -> Self::Pos;
+    /// The child slots, nearest to the light first, where [`ShadowHooks::ordered`] says so.
+    #[inline(always)]
+    fn order(&self) -> &SlotOrder {
+        &IDENTITY_ORDER
+    }
+    /// A sample drawn in the view, with attribute `attr`: returns whether it is in shadow (and may
+    /// fill the map).
+    fn drawn(&mut self, level: usize, p: Self::Pos, attr: u16) -> bool;
+    /// A sample that casts but is not drawn (backfacing, or in a culled subtree): fill only.
+    fn casts(&mut self, level: usize, p: Self::Pos);
+    /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
+    fn light_stop(&self, level: usize) -> bool;
+    /// A cell at `level`, drawn by the view walk or not, whose children have all been visited.
+    #[inline(always)]
+    fn descended(&mut self, _level: usize, _p: Self::Pos) {}
+}
+
+/// No shadows: every hook is a no-op and the light-space position is `()`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoShadows;
+
+impl ShadowHooks for NoShadows {
+    type Pos = ();
+    const FILL_CULLED: bool = false;
+    #[inline(always)]
+    fn root(&self) {}
+    #[inline(always)]
+    fn child(&self, _: (), _: usize, _: usize) {}
+    #[inline(always)]
+    fn drawn(&mut self, _: usize, _: (), _: u16) -> bool {
+        false
+    }
+    #[inline(always)]
+    fn casts(&mut self, _: usize, _: ()) {}
+    #[inline(always)]
+    fn light_stop(&self, _: usize) -> bool {
+        true
+    }
+}
+
+/// An order of the ρ³ child slots (Duguet §5.3: nearest to the light first), with the look-up that
+/// visits a cell's present children in it without scanning all 27: the child mask, 7 bits at a
+/// time, maps to the set of the present slots' positions in the order.
+#[derive(Clone, Debug)]
+pub struct SlotOrder {
+    pub(crate) slots: [u8; MAX_SLOTS],
+    /// `positions[c][m]`: bit `i` set where `slots[i]` is one of the slots `7c + b`, `b` a set bit
+    /// of `m`.
+    positions: [[u32; 128]; 4],
+}
+
+impl SlotOrder {
+    /// `slots` must hold each of `0..MAX_SLOTS` once.
+    pub const fn new(slots: [u8; MAX_SLOTS]) -> Self {
+        let mut at = [0u32; 32];
+        let mut i = 0;
+        while i < MAX_SLOTS {
+            at[slots[i] as usize] = 1 << i;
+            i += 1;
+        }
+        let mut positions = [[0u32; 128]; 4];
+        let mut c = 0;
+        while c < 4 {
+            let mut m = 0;
+            while m < 128 {
+                let mut b = 0;
+                while b < 7 {
+                    if m >> b & 1 != 0 {
+                        positions[c][m] |= at[7 * c + b];
+                    }
+                    b += 1;
+                }
+                m += 1;
+            }
+            c += 1;
+        }
+        SlotOrder { slots, positions }
+    }
+
+    /// No slot at all: a placeholder (all zeros) for a light not set up yet.
+    pub const NONE: SlotOrder = SlotOrder {
+        slots: [0; MAX_SLOTS],
+        positions: [[0; 128]; 4],
+    };
+
+    /// The slots, in order.
+    pub fn slots(&self) -> &[u8; MAX_SLOTS] {
+        &self.slots
+    }
+
+    /// Where the slots of `mask` are in the order, as a bit set: four look-ups.
+    #[inline(always)]
+    pub(crate) fn positions(&self, mask: u32) -> u32 {
+        let p = &self.positions;
+        p[0][(mask & 127) as usize]
+            | p[1][(mask >> 7 & 127) as usize]
+            | p[2][(mask >> 14 & 127) as usize]
+            | p[3][(mask >> 21 & 127) as usize]
+    }
+}
+
+/// Slot order.
+const IDENTITY_ORDER: SlotOrder = {
+    let mut o = [0u8; MAX_SLOTS];
+    let mut i = 0;
+    while i < MAX_SLOTS {
+        o[i] = i as u8;
+        i += 1;
+    }
+    SlotOrder::new(o)
+};
