@@ -63,7 +63,7 @@ pub fn run(
             "input": input, "renderer": "tg-stream", "frames": frames,
             "bytes_read": c.bytes_read, "file_bytes": file_bytes,
             "read_errors": c.read_errors, "crc_errors": c.crc_errors, "evictions": c.evictions,
-            "cache_blocks": outcome.cache_blocks, "io_budget": opts.io_budget,
+            "cache_blocks": outcome.cache_blocks, "resident_blocks": outcome.resident_blocks, "io_budget": opts.io_budget,
             "nodes_visited": s.nodes_visited, "splats": s.splats, "max_level": s.max_level,
             "crc": format!("{:08x}", fb.crc()), "ms": t.elapsed().as_secs_f64() * 1e3,
             "passes": outcome.passes, "refined_reads": outcome.refined_reads,
@@ -102,4 +102,73 @@ pub fn run(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Write;
+
+    use crate::stream::http::tests::serve_with;
+
+    /// `render --stream` from a server that serves the header and CRC table as ranges, then
+    /// answers 200 with the whole file: the render stops with the server's fault, and writes
+    /// nothing.
+    #[test]
+    fn render_stream_stops_at_a_server_that_stops_serving_ranges() {
+        use std::sync::atomic::{AtomicU32, Ordering};
+        let mesh = crate::demo::trefoil(48, 6, 0.45);
+        let (_, file) = crate::bake::bake_mesh(
+            &mesh,
+            pocketsplat_core::bake::BakeOptions { rho: 3, depth: 3 },
+            9,
+            false,
+        )
+        .unwrap();
+        let served = std::sync::Arc::new(file.clone());
+        let requests = std::sync::Arc::new(AtomicU32::new(0));
+        let counted = requests.clone();
+        let (port, server) = serve_with(move |w, a, b| {
+            let (a, b) = (a as usize, b as usize);
+            let r = if counted.fetch_add(1, Ordering::SeqCst) < 3 {
+                let mut r = format!(
+                    "HTTP/1.1 206 Partial Content\r\nContent-Length: {}\r\nContent-Range: bytes {a}-{b}/{}\r\n\r\n",
+                    b + 1 - a,
+                    served.len()
+                )
+                .into_bytes();
+                r.extend_from_slice(&served[a..=b]);
+                r
+            } else {
+                let mut r = format!(
+                    "HTTP/1.1 200 OK\r\nContent-Length: {}\r\n\r\n",
+                    served.len()
+                )
+                .into_bytes();
+                r.extend_from_slice(&served);
+                r
+            };
+            let _ = w.write_all(&r);
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.png");
+        let url = format!("http://127.0.0.1:{port}/m.tg");
+        let err = super::run(
+            &url,
+            &out,
+            &crate::render::Settings::default(),
+            &crate::stream::run::StreamOptions::default(),
+            false,
+        )
+        .unwrap_err();
+        let msg = format!("{err:#}");
+        assert!(
+            msg.contains(&format!(
+                "server at 127.0.0.1:{port} sent 200 without a byte range for /m.tg"
+            )),
+            "{msg}"
+        );
+        assert!(!out.exists(), "no PNG");
+        assert!(requests.load(Ordering::SeqCst) < 20, "stopped at once");
+        server.join().unwrap();
+    }
 }
