@@ -204,10 +204,11 @@ impl<const MATERIALS: usize> ShadingTable<MATERIALS> {
         for (out, n) in self.colors[k].iter_mut().zip(normal::NORMALS_Q14.iter()) {
             let n = n.map(i32::from);
             let ndl = (n[0] * lq[0] + n[1] * lq[1] + n[2] * lq[2]) >> 14;
-            let light = amb + ((dif * ndl.max(0)) >> 14);
+            // Weights reach 4.0 (Q16 2^18), so these products need more than 32 bits.
+            let light = amb + ((i64::from(dif) * i64::from(ndl.max(0))) >> 14) as i32;
             let spec = if ndl > 0 {
                 let ndh = ((n[0] * hq[0] + n[1] * hq[1] + n[2] * hq[2]) >> 14).clamp(0, 16384);
-                (spc * i32::from(pow[(ndh >> 4) as usize])) >> 16
+                ((i64::from(spc) * i64::from(pow[(ndh >> 4) as usize])) >> 16) as i32
             } else {
                 0
             };
@@ -298,6 +299,38 @@ mod tests {
         // Facing away from the light: ambient only.
         let away = normal::encode(camera::scale(l, -1.0));
         assert_eq!(t.color(away), to_rgb565([0.12, 0.12, 0.12]));
+    }
+
+    /// The heaviest material a scene file may name (weights 4, colour 1, exponent 0 or 1024): no
+    /// product overflows (tests run with overflow checks), and every entry is within one step of the
+    /// float Phong model, which saturates to white where the light reaches.
+    #[test]
+    fn the_heaviest_materials_saturate_without_overflow() {
+        let l = camera::direction(-40.0, 60.0);
+        let v = [0.0, 0.0, 1.0];
+        for shininess in [0.0, 1.0, 1024.0] {
+            let m = Material {
+                color: [1.0, 1.0, 1.0],
+                ambient: 4.0,
+                diffuse: 4.0,
+                specular: 4.0,
+                shininess,
+            };
+            let mut t = ShadingTable::<1>::new();
+            t.update(&[m], l, v);
+            for code in 0..NORMAL_COUNT as u16 {
+                let n = normal::decode(code).map(f64::from);
+                let want = to_rgb565(phong(&m, n, l, v));
+                let got = t.color(code);
+                for (shift, mask) in [(11, 31), (5, 63), (0, 31)] {
+                    let (a, b) = (
+                        i32::from(want >> shift & mask),
+                        i32::from(got >> shift & mask),
+                    );
+                    assert!((a - b).abs() <= 1, "code {code}: {want:#06x} vs {got:#06x}");
+                }
+            }
+        }
     }
 }
 
