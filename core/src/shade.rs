@@ -275,18 +275,11 @@ mod tests {
         assert_eq!(rgb255_to_rgb565([f64::NAN; 3]), 0);
     }
 
-    #[test]
-    fn table_is_rebuilt_only_on_change_and_matches_phong() {
-        let mut t = ShadingTable::<1>::new();
-        let l = camera::direction(-40.0, 60.0);
-        let v = [0.0, 0.0, 1.0];
-        assert!(t.update(&[DEFAULT_MATERIAL], l, v));
-        assert!(!t.update(&[DEFAULT_MATERIAL], l, v));
-        assert_eq!(t.rebuilds(), 1);
-        // Every entry within one step per channel of the float Phong model.
+    /// Every entry of `t`'s slot 0 within one step per channel of the float Phong model of `m`.
+    fn assert_within_a_step_of_phong(t: &ShadingTable<1>, m: &Material, l: Vec3, v: Vec3) {
         for code in 0..NORMAL_COUNT as u16 {
             let n = normal::decode(code).map(f64::from);
-            let want = to_rgb565(phong(&DEFAULT_MATERIAL, n, l, v));
+            let want = to_rgb565(phong(m, n, l, v));
             let got = t.color(code);
             for (shift, mask) in [(11, 31), (5, 63), (0, 31)] {
                 let (a, b) = (
@@ -296,6 +289,17 @@ mod tests {
                 assert!((a - b).abs() <= 1, "code {code}: {want:#06x} vs {got:#06x}");
             }
         }
+    }
+
+    #[test]
+    fn table_is_rebuilt_only_on_change_and_matches_phong() {
+        let mut t = ShadingTable::<1>::new();
+        let l = camera::direction(-40.0, 60.0);
+        let v = [0.0, 0.0, 1.0];
+        assert!(t.update(&[DEFAULT_MATERIAL], l, v));
+        assert!(!t.update(&[DEFAULT_MATERIAL], l, v));
+        assert_eq!(t.rebuilds(), 1);
+        assert_within_a_step_of_phong(&t, &DEFAULT_MATERIAL, l, v);
         // Facing away from the light: ambient only.
         let away = normal::encode(camera::scale(l, -1.0));
         assert_eq!(t.color(away), to_rgb565([0.12, 0.12, 0.12]));
@@ -318,18 +322,7 @@ mod tests {
             };
             let mut t = ShadingTable::<1>::new();
             t.update(&[m], l, v);
-            for code in 0..NORMAL_COUNT as u16 {
-                let n = normal::decode(code).map(f64::from);
-                let want = to_rgb565(phong(&m, n, l, v));
-                let got = t.color(code);
-                for (shift, mask) in [(11, 31), (5, 63), (0, 31)] {
-                    let (a, b) = (
-                        i32::from(want >> shift & mask),
-                        i32::from(got >> shift & mask),
-                    );
-                    assert!((a - b).abs() <= 1, "code {code}: {want:#06x} vs {got:#06x}");
-                }
-            }
+            assert_within_a_step_of_phong(&t, &m, l, v);
         }
     }
 }

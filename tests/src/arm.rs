@@ -437,7 +437,7 @@ pub fn baked_bunny() -> Result<Option<PathBuf>> {
 }
 
 /// The bunny baked in `format` into `target/arm/models/`: a tri-grid at paper level 5 (depth 6,
-/// `bunny-d6.tg`), or a QSplat file as `pocketsplat bake --format qsplat` bakes it (the default
+/// `bunny-d6-flash.tg`), or a QSplat file as `pocketsplat bake --format qsplat` bakes it (the default
 /// options, as `tests/tests/qsplat.rs`; `bunny.qs`). `None` off CI when the scan is missing
 /// ([`model`]).
 ///
