@@ -1,4 +1,5 @@
-//! Fixed-point formats and the reciprocal look-up, written down once (STYLE 8).
+//! Fixed-point formats and the reciprocal look-up, written down once (`docs/ARCHITECTURE.md`,
+//! convention 8).
 //!
 //! | quantity | format |
 //! |---|---|

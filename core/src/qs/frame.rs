@@ -1,7 +1,7 @@
 //! Per-frame setup of a QSplat render (floats allowed here, never per node): the camera becomes
 //! integer tables that the traversal only adds, multiplies and compares.
 //!
-//! Units (written down once, STYLE 8):
+//! Units (written down once, `docs/ARCHITECTURE.md` convention 8):
 //! - **model integers**: a tree's positions relative to its root centre, in units of
 //!   `root radius / 2²⁸` ([`ROOT_RADIUS`]). A child's centre is its parent's plus `(a, b, c)·r₁₃` and its
 //!   radius `s·r₁₃`, where `r₁₃ = ⌈r/13⌉` of the parent: one table look-up and a few multiplies.

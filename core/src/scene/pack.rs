@@ -1,5 +1,6 @@
 //! Reading scene packs: a raw layer of bounds-checked little-endian reads, then [`Pack`], validated
-//! once by [`Pack::open`], whose accessors cannot panic afterwards (STYLE 5).
+//! once by [`Pack::open`], whose accessors cannot panic afterwards (`docs/ARCHITECTURE.md`,
+//! convention 5).
 
 use super::{
     Kind, MaterialRecord, ObjectRecord, Savings, ShadowMode, ALIGN_LOG2_RANGE, FLAG_CASTS,
