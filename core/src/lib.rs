@@ -18,12 +18,17 @@
 //! ```
 #![cfg_attr(not(test), no_std)]
 
+#[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
+compile_error!(
+    "pocketsplat-core reads no format: enable the feature `trigrid` (the default) or `qsplat`, \
+     or both (`scene`, `shadows` and `stream` enable `trigrid`)"
+);
+
 #[cfg(feature = "std")]
 extern crate std;
 
 /// Counts into a frame's [`splat::Stats`] with the `stats` feature only: the device build keeps no
 /// per-node statistics (without the feature a frame's counts are all 0).
-#[allow(unused_macros)] // A build with neither format has no traversal to count in.
 macro_rules! count {
     ($($counting:tt)*) => {
         #[cfg(any(test, feature = "stats"))]
@@ -38,6 +43,7 @@ pub mod camera;
 pub mod crc;
 pub mod fixed;
 pub mod format;
+pub mod frame;
 pub mod lod;
 pub mod normal;
 #[cfg(feature = "qsplat")]

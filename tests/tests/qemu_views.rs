@@ -235,7 +235,9 @@ fn firmware_frames_are_the_simulators_frames() {
     let mut host = HostFrames::new();
     let mut sim = FrameBuffers::new();
     for spec in frame_specs_for(&Shadows::ALL) {
-        let ours = host.render(&grid.into(), spec).unwrap();
+        let ours = host
+            .render(&pocketsplat_core::Model::TriGrid(grid), spec)
+            .unwrap();
         let settings = Settings {
             view: STANDARD_VIEWS[spec.view].1,
             cutoff_px: f32::from(spec.cutoff_px),

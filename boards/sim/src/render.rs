@@ -14,7 +14,7 @@ use embedded_graphics::primitives::Rectangle;
 use pocketsplat_core::camera::{self, Camera, Sphere, View, Viewport, DEFAULT_FOV_DEG};
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
 use pocketsplat_core::raster::{crc565, draw_splat, DisplayTarget, Kernel, Splat, DEPTH_FAR};
-use pocketsplat_core::render::{render_marked, Layer, Model, Pass, Phase, RenderOptions, Target};
+use pocketsplat_core::render::{render_marked, Layer, Model, Phase, RenderOptions, Target, Walk};
 use pocketsplat_core::scene::SceneStats;
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::LightFrame;
@@ -356,14 +356,14 @@ pub struct FrameReport {
 pub struct Tinted<'l>(pub &'l Levels);
 
 impl Layer for Tinted<'_> {
-    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+    fn run<W: Walk, S: ColorSink>(&mut self, walk: &mut W, sink: &mut S) -> Stats {
         let levels = self.0;
         let mut tinted = LevelTint {
             sink,
             levels: |object, s: &SampleSplat| levels.of(object, s),
             object: 0,
         };
-        pass.run(&mut tinted)
+        walk.walk(&mut tinted)
     }
 }
 
@@ -376,10 +376,10 @@ pub enum Layers<'l> {
 }
 
 impl Layer for Layers<'_> {
-    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
+    fn run<W: Walk, S: ColorSink>(&mut self, walk: &mut W, sink: &mut S) -> Stats {
         match self {
-            Layers::Direct => pass.run(sink),
-            Layers::Tinted(t) => t.run(pass, sink),
+            Layers::Direct => walk.walk(sink),
+            Layers::Tinted(t) => t.run(walk, sink),
         }
     }
 }
@@ -556,8 +556,8 @@ impl<S: ColorSink> ColorSink for Tee<'_, '_, S> {
 }
 
 impl Layer for ClassTee<'_> {
-    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
-        pass.run(&mut Tee { sink, tee: self })
+    fn run<W: Walk, S: ColorSink>(&mut self, walk: &mut W, sink: &mut S) -> Stats {
+        walk.walk(&mut Tee { sink, tee: self })
     }
 }
 

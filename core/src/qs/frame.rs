@@ -14,8 +14,8 @@
 
 use super::read::{QSplat, Tree};
 use crate::camera::{self, Camera, Placement, Projection, Vec3, Viewport, PROJECTED_RANGE};
+use crate::frame::{FrameError, RenderOptions};
 use crate::raster::Kernel;
-use crate::render::{FrameError, RenderOptions};
 use crate::shade::Material;
 
 /// A root sphere's radius in model integers.

@@ -16,7 +16,7 @@ pub mod write;
 
 pub use frame::{shading_material, QsFrame};
 pub use read::{ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsError, Tree};
-pub use traverse::{render_qs, render_qs_colored, ColorSink};
+pub use traverse::{render_qs, render_qs_colored, ColorSink, QsWalk};
 
 /// The magic of every fragment.
 pub const MAGIC: [u8; 8] = crate::format::QS_MAGIC;

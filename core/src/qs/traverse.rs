@@ -9,6 +9,7 @@ use super::read::{Group, Node, QSplat, Tree};
 use super::table::{unpack, SPHERES};
 use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
 use crate::fixed::{recip, SUBPIXEL_BITS};
+use crate::frame::Walk;
 pub use crate::splat::ColorSink;
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
@@ -26,6 +27,22 @@ impl<S: SplatSink> ColorSink for NoColor<'_, S> {
     #[inline(always)]
     fn splat_colored(&mut self, s: &SampleSplat, _: u16) {
         self.0.splat(s);
+    }
+}
+
+/// A QSplat file's frame ready to walk: what the pipeline runs ([`Walk`]), coloured samples to
+/// [`ColorSink::splat_colored`].
+pub struct QsWalk<'a, 'f> {
+    /// The file.
+    pub file: &'a QSplat<'f>,
+    /// Its frame.
+    pub frame: &'a QsFrame,
+}
+
+impl Walk for QsWalk<'_, '_> {
+    #[inline]
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
+        render_qs_colored(self.file, self.frame, sink)
     }
 }
 
@@ -406,9 +423,9 @@ mod render_tests {
     #![allow(clippy::float_arithmetic)]
     use super::*;
     use crate::camera::{Camera, Placement, Sphere as BSphere, View, STANDARD_VIEWS};
+    use crate::frame::RenderOptions;
     use crate::qs::table::sphere;
     use crate::qs::write::{bake_qs, tests::uv_sphere, QsBakeOptions};
-    use crate::render::RenderOptions;
     use crate::splat::NullSink;
     use std::collections::HashMap;
     use std::vec::Vec;

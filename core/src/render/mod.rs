@@ -37,11 +37,11 @@
 //! ```
 //!
 //! [`render`] is the pipeline every caller of the project goes through (the firmware's views, the
-//! simulator's `render` and `view`, scenes, reports): the camera for the target's size, the
-//! format's per-frame tables (and the light's, with shadows), the shading table, clear, the
-//! format's traversal through the shaded raster. A [`Layer`] puts a sink of the caller's between
-//! the traversal and the raster (colour by resolution, a recording tee); [`Phase`] marks let a
-//! benchmark attribute the cost of each step.
+//! simulator's `render` and `view`, scenes, streams, reports): the camera for the target's size,
+//! the format's per-frame tables (and the light's, with shadows) as a [`Walk`], then one code path
+//! for every format: the shading table, clear, the walk through the shaded raster. A [`Layer`]
+//! puts a sink of the caller's between the walk and the raster (colour by resolution, a recording
+//! tee); [`Phase`] marks let a benchmark attribute the cost of each step.
 //!
 //! What a target is: pixels with a depth test ([`DepthTarget`]: the project's
 //! [`Framebuffer`](crate::raster::Framebuffer) or any display as a
@@ -49,33 +49,29 @@
 //! map and the light's tables ([`Target::with_shadows`]). Nothing is allocated: a firmware keeps
 //! them in statics.
 
-// A build with no format feature has nothing to draw: the pipeline's steps go unused.
-#![cfg_attr(not(any(feature = "trigrid", feature = "qsplat")), allow(dead_code))]
-
-use core::fmt;
-
+mod error;
+mod formats;
 mod model;
-mod options;
+#[cfg(feature = "stream")]
+mod stream;
 
-pub use model::{Model, ModelError};
-pub use options::{FrameError, RenderOptions, DEFAULT_SHADOW_MAP_SIZE};
+pub use crate::frame::{FrameError, RenderOptions, Shading, Walk, DEFAULT_SHADOW_MAP_SIZE};
+pub use error::{ModelError, RenderError};
+#[cfg(feature = "scene")]
+pub use formats::render_scene_marked;
+pub use model::Model;
+#[cfg(feature = "stream")]
+pub use stream::{render_stream, StreamPass};
 
 use crate::camera::{self, Camera, Vec3};
-use crate::format::FileFormat;
-use crate::raster::{DepthTarget, Kernel};
-use crate::shade::{Material, ShadingTable, ShadowMode};
+use crate::raster::DepthTarget;
+use crate::shade::{ShadingTable, ShadowMode};
 use crate::splat::{ColorSink, ShadedRaster, Stats};
 
-#[cfg(feature = "qsplat")]
-use crate::qs::{render_qs_colored, QSplat, QsFrame};
 #[cfg(feature = "scene")]
-use crate::scene::{Scene, SceneError, SceneStats};
+use crate::scene::SceneStats;
 #[cfg(feature = "shadows")]
-use crate::shadow::{render_tg_shadowed, LightError, LightFrame, ShadowMap};
-#[cfg(feature = "stream")]
-use crate::stream::TgStream;
-#[cfg(feature = "trigrid")]
-use crate::tg::{render_tg, TgFrame, TriGrid};
+use crate::shadow::LightFrame;
 
 /// Where [`render`] draws: pixels with a depth test, the shading table (kept between frames, so
 /// that it is rebuilt only when the view or light turns: `M` material slots, 1 for a model, a
@@ -243,182 +239,17 @@ pub struct Drawn {
     pub scene: Option<SceneStats>,
 }
 
-/// Why [`render`] cannot draw a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum RenderError {
-    /// The format's per-frame tables ([`FrameError`]: a bad camera or cutoff, ρ above 3).
-    Frame(FrameError),
-    /// Shadows asked of a model that has none (QSplat), of a build without the `shadows` feature,
-    /// or of a target without a shadow map ([`Target::with_shadows`]).
-    NoShadows(FileFormat, ShadowMode),
-    /// A shadow map smaller than the options' side² (`need` depths, `given`), or a side the light
-    /// cannot use.
-    ShadowMap {
-        /// Depths the map needs.
-        need: u32,
-        /// Depths the target has.
-        given: u32,
-    },
-    /// The light cannot be set up (a point light inside the model's cube, a map side it cannot
-    /// use, a position that is not finite).
-    #[cfg(feature = "shadows")]
-    Light(LightError),
-    /// A scene could not be drawn (its frames, its slots, its shadow map).
-    #[cfg(feature = "scene")]
-    Scene(SceneError),
-}
-
-impl core::error::Error for RenderError {}
-
-impl fmt::Display for RenderError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RenderError::Frame(e) => write!(f, "{e}"),
-            RenderError::NoShadows(format, mode) => write!(
-                f,
-                "shadows {} of a {} model: shadows need a tri-grid (or a scene), the `shadows` \
-                 feature and a target with a shadow map",
-                mode.name(),
-                format.name()
-            ),
-            RenderError::ShadowMap { need, given } => write!(
-                f,
-                "the shadow map needs {need} depths, the target has {given}"
-            ),
-            #[cfg(feature = "shadows")]
-            RenderError::Light(e) => write!(f, "{e}"),
-            #[cfg(feature = "scene")]
-            RenderError::Scene(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl From<FrameError> for RenderError {
-    fn from(e: FrameError) -> Self {
-        RenderError::Frame(e)
-    }
-}
-
-#[cfg(feature = "scene")]
-impl From<SceneError> for RenderError {
-    fn from(e: SceneError) -> Self {
-        RenderError::Scene(e)
-    }
-}
-
-/// A frame's traversal, set up and ready to run into any sink: what a [`Layer`] receives.
-pub struct Pass<'p, 'd> {
-    kind: PassKind<'p, 'd>,
-}
-
-enum PassKind<'p, 'd> {
-    #[cfg(feature = "trigrid")]
-    TriGrid(&'p TriGrid<'p>, &'p TgFrame),
-    #[cfg(feature = "shadows")]
-    Shadowed {
-        grid: &'p TriGrid<'p>,
-        frame: &'p TgFrame,
-        light: &'p LightFrame,
-        map: &'p mut [u16],
-        side: usize,
-        mode: ShadowMode,
-    },
-    #[cfg(feature = "qsplat")]
-    QSplat(&'p QSplat<'p>, &'p QsFrame),
-    #[cfg(feature = "scene")]
-    Scene {
-        scene: &'p Scene<'p>,
-        camera: &'p Camera,
-        options: &'p RenderOptions,
-        map: &'p mut [u16],
-        #[cfg(feature = "shadows")]
-        light: Option<&'p mut LightFrame>,
-        stats: &'p mut Option<Result<SceneStats, SceneError>>,
-    },
-    #[cfg(feature = "stream")]
-    Stream {
-        stream: &'p mut TgStream<'d>,
-        frame: &'p TgFrame,
-        refined: bool,
-    },
-    #[allow(dead_code)] // A build without streaming or formats has no use for `'d`.
-    Nothing(core::marker::PhantomData<(&'p (), &'d ())>),
-}
-
-impl Pass<'_, '_> {
-    /// Runs the traversal into `sink`; returns its counts.
-    pub fn run<S: ColorSink>(self, sink: &mut S) -> Stats {
-        match self.kind {
-            #[cfg(feature = "trigrid")]
-            PassKind::TriGrid(grid, frame) => render_tg(grid, frame, sink),
-            #[cfg(feature = "shadows")]
-            PassKind::Shadowed {
-                grid,
-                frame,
-                light,
-                map,
-                side,
-                mode,
-            } => {
-                let mut map = ShadowMap::new(map, side);
-                render_tg_shadowed(grid, frame, light, &mut map, mode, sink)
-            }
-            #[cfg(feature = "qsplat")]
-            PassKind::QSplat(file, frame) => render_qs_colored(file, frame, sink),
-            #[cfg(feature = "scene")]
-            PassKind::Scene {
-                scene,
-                camera,
-                options,
-                map,
-                #[cfg(feature = "shadows")]
-                light,
-                stats,
-            } => {
-                #[cfg(feature = "shadows")]
-                let r = match light {
-                    Some(light) => {
-                        crate::scene::render_scene_in(scene, camera, options, map, light, sink)
-                    }
-                    None => crate::scene::render_scene(scene, camera, options, map, sink),
-                };
-                #[cfg(not(feature = "shadows"))]
-                let r = crate::scene::render_scene(scene, camera, options, map, sink);
-                let total = r.as_ref().map(|s| s.total).unwrap_or_default();
-                *stats = Some(r);
-                total
-            }
-            #[cfg(feature = "stream")]
-            PassKind::Stream {
-                stream,
-                frame,
-                refined,
-            } => {
-                if refined {
-                    stream.render_pass(frame, sink)
-                } else {
-                    stream.render(frame, sink)
-                }
-            }
-            PassKind::Nothing(_) => {
-                let _ = sink;
-                Stats::default()
-            }
-        }
-    }
-}
-
-/// What a caller puts between a frame's traversal and the shaded raster: a sink of its own
-/// wrapping the raster's (colour by resolution, a tee that records what is drawn). The default
-/// runs the pass straight into the raster.
+/// What a caller puts between a frame's walk and the shaded raster: a sink of its own wrapping
+/// the raster's (colour by resolution, a tee that records what is drawn). The default runs the
+/// walk straight into the raster.
 ///
 /// A layer that counts the splats of each level on their way to a 128 × 160 display:
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use pocketsplat_core::raster::DisplayTarget;
-/// use pocketsplat_core::render::{render_marked, Layer, Pass, Phase};
+/// use pocketsplat_core::frame::Walk;
+/// use pocketsplat_core::render::{render_marked, Layer, Phase};
 /// use pocketsplat_core::shade::ShadingTable;
 /// use pocketsplat_core::splat::{ColorSink, SampleSplat, SplatSink, Stats};
 /// use pocketsplat_core::{Model, RenderOptions, Target, View};
@@ -450,8 +281,8 @@ impl Pass<'_, '_> {
 ///     }
 /// }
 /// impl Layer for PerLevel {
-///     fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
-///         pass.run(&mut Counting(&mut self.0, sink))
+///     fn run<W: Walk, S: ColorSink>(&mut self, walk: &mut W, sink: &mut S) -> Stats {
+///         walk.walk(&mut Counting(&mut self.0, sink))
 ///     }
 /// }
 ///
@@ -473,13 +304,13 @@ impl Pass<'_, '_> {
 /// # }
 /// ```
 pub trait Layer {
-    /// Runs `pass` into `sink`, or into a sink of the layer's in front of it.
-    fn run<S: ColorSink>(&mut self, pass: Pass<'_, '_>, sink: &mut S) -> Stats {
-        pass.run(sink)
+    /// Runs `walk` into `sink`, or into a sink of the layer's in front of it.
+    fn run<W: Walk, S: ColorSink>(&mut self, walk: &mut W, sink: &mut S) -> Stats {
+        walk.walk(sink)
     }
 }
 
-/// No layer: the traversal draws straight into the raster.
+/// No layer: the walk draws straight into the raster.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Direct;
 
@@ -515,341 +346,72 @@ pub fn render_marked<P: DepthTarget, L: Layer, const M: usize>(
 ) -> Result<Drawn, RenderError> {
     mark(Phase::Setup);
     let camera = camera.for_viewport(target.pixels.viewport());
-    let view_dir = camera::scale(camera.forward, -1.0);
-    match model {
-        #[cfg(feature = "trigrid")]
-        Model::TriGrid(grid) => {
-            let frame = TgFrame::new(
-                grid.header(),
-                &camera::Placement::IDENTITY,
-                &camera,
-                options,
-            )?;
-            let material = options.material;
-            if options.shadows == ShadowMode::Off {
-                let pass = PassKind::TriGrid(grid, &frame);
-                return Ok(draw(
-                    target,
-                    material_table(material),
-                    view_dir,
-                    options,
-                    pass,
-                    layer,
-                    &mut mark,
-                ));
-            }
-            #[cfg(feature = "shadows")]
-            if let Some((map, light)) = target.shadow.as_mut() {
-                let side = options.shadow_map_size;
-                set_light(light, grid, options, map.len())?;
-                let (map, light): (&mut [u16], &LightFrame) = (map, light);
-                // Borrowed apart from the pixels and the table, which the raster takes.
-                let pass = PassKind::Shadowed {
-                    grid,
-                    frame: &frame,
-                    light,
-                    map,
-                    side,
-                    mode: options.shadows,
-                };
-                let (pixels, table) = (&mut target.pixels, &mut *target.table);
-                return Ok(draw_parts(
-                    pixels,
-                    table,
-                    material_table(material),
-                    view_dir,
-                    options,
-                    pass,
-                    layer,
-                    &mut mark,
-                ));
-            }
-            Err(RenderError::NoShadows(FileFormat::TriGrid, options.shadows))
-        }
-        #[cfg(feature = "qsplat")]
-        Model::QSplat(file) => {
-            if options.shadows != ShadowMode::Off {
-                return Err(RenderError::NoShadows(FileFormat::QSplat, options.shadows));
-            }
-            let frame = QsFrame::new(file, &camera::Placement::IDENTITY, &camera, options)?;
-            let material = model.material(options.material);
-            let pass = PassKind::QSplat(file, &frame);
-            Ok(draw(
-                target,
-                material_table(material),
-                view_dir,
-                options,
-                pass,
-                layer,
-                &mut mark,
-            ))
-        }
-        #[cfg(feature = "scene")]
-        Model::Scene(scene) => scene_frame(scene, &camera, options, target, layer, &mut mark),
-        #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-        Model::None(_, never) => {
-            let _ = (camera, view_dir, options, layer, &mut mark, &target);
-            match *never {}
-        }
+    model.draw(&camera, options, target, layer, &mut mark)
+}
+
+/// The direction towards the viewer, world frame: what the shading table lights for.
+pub(crate) fn view_dir(camera: &Camera) -> Vec3 {
+    camera::scale(camera.forward, -1.0)
+}
+
+impl<P: DepthTarget, const M: usize> Target<'_, P, M> {
+    /// The pipeline after a model's set-up, one code path for every format, stream and scene:
+    /// the shading table ([`Phase::Table`]), clearing when `clear` ([`Phase::Clear`]), the walk
+    /// through `layer` into the shaded raster ([`Phase::Traverse`]), then [`Phase::End`].
+    pub(crate) fn draw<W: Walk, L: Layer>(
+        &mut self,
+        walk: &mut W,
+        shading: &Shading<M>,
+        clear: bool,
+        options: &RenderOptions,
+        layer: &mut L,
+        mark: &mut impl FnMut(Phase),
+    ) -> Drawn {
+        draw(
+            &mut self.pixels,
+            self.table,
+            walk,
+            shading,
+            clear,
+            options,
+            layer,
+            mark,
+        )
     }
 }
 
-/// [`render_marked`] of a scene pack's opened [`Scene`] (what [`Model::Scene`] holds), for a
-/// caller that keeps the scene itself: `M` must be at least the pack's material slots.
-///
-/// # Errors
-/// As [`render`].
-#[cfg(feature = "scene")]
-pub fn render_scene_marked<P: DepthTarget, L: Layer, const M: usize>(
-    scene: &Scene<'_>,
-    camera: &Camera,
-    options: &RenderOptions,
-    target: &mut Target<'_, P, M>,
-    layer: &mut L,
-    mut mark: impl FnMut(Phase),
-) -> Result<Drawn, RenderError> {
-    mark(Phase::Setup);
-    let camera = camera.for_viewport(target.pixels.viewport());
-    scene_frame(scene, &camera, options, target, layer, &mut mark)
-}
-
-/// A scene's frame after [`Phase::Setup`]: its slots' shading ([`Phase::Table`]), then every
-/// object's traversal into the shared depth buffer.
-#[cfg(feature = "scene")]
-fn scene_frame<P: DepthTarget, L: Layer, const M: usize>(
-    scene: &Scene<'_>,
-    camera: &Camera,
-    options: &RenderOptions,
-    target: &mut Target<'_, P, M>,
-    layer: &mut L,
-    mark: &mut impl FnMut(Phase),
-) -> Result<Drawn, RenderError> {
-    mark(Phase::Table);
-    let table_rebuilt = scene.update_table(target.table, camera, options.light_dir)?;
-    let mut stats = None;
-    #[cfg(feature = "shadows")]
-    let (map, light): (&mut [u16], Option<&mut LightFrame>) = match target.shadow.as_mut() {
-        Some((map, light)) => (&mut **map, Some(&mut **light)),
-        None => (&mut [], None),
-    };
-    #[cfg(not(feature = "shadows"))]
-    let map: &mut [u16] = &mut [];
-    let pass = PassKind::Scene {
-        scene,
-        camera,
-        options,
-        map,
-        #[cfg(feature = "shadows")]
-        light,
-        stats: &mut stats,
-    };
-    let (pixels, table) = (&mut target.pixels, &*target.table);
-    clear_and_run(pixels, table, options, Pass { kind: pass }, layer, mark);
-    // A layer that never ran the pass drew nothing: empty counts.
-    let stats = stats.unwrap_or(Ok(SceneStats::default()))?;
-    Ok(Drawn {
-        stats: stats.total,
-        table_rebuilt,
-        shadows: stats.shadows,
-        scene: Some(stats),
-    })
-}
-
-/// A frame of a tri-grid streamed through a block cache ([`TgStream::render`]: it draws what is
-/// resident and queues what is missing, [`TgStream::serve`] reads it), through the same camera,
-/// shading table, clear and raster as [`render`]. `refined` draws the next pass of a refined frame
-/// instead ([`TgStream::render_pass`]): the pixels are cleared only for the first pass (`first`,
-/// which also starts the refined frame), so that the passes add up to the resident frame.
-/// Without shadows: the streamed traversal takes no light pass.
-///
-/// # Errors
-/// [`RenderError::Frame`] when the frame cannot be set up, [`RenderError::NoShadows`] when the
-/// options ask for shadows.
-#[cfg(feature = "stream")]
-pub fn render_stream<P: DepthTarget, L: Layer, const M: usize>(
-    stream: &mut TgStream<'_>,
-    camera: &Camera,
-    options: &RenderOptions,
-    target: &mut Target<'_, P, M>,
-    pass: StreamPass,
-    layer: &mut L,
-    mut mark: impl FnMut(Phase),
-) -> Result<Drawn, RenderError> {
-    mark(Phase::Setup);
-    if options.shadows != ShadowMode::Off {
-        return Err(RenderError::NoShadows(FileFormat::TriGrid, options.shadows));
-    }
-    let camera = camera.for_viewport(target.pixels.viewport());
-    let frame = TgFrame::new(
-        stream.header(),
-        &camera::Placement::IDENTITY,
-        &camera,
-        options,
-    )?;
-    let view_dir = camera::scale(camera.forward, -1.0);
-    mark(Phase::Table);
-    let table_rebuilt = target
-        .table
-        .update(&[options.material; M], options.light_dir, view_dir);
-    mark(Phase::Clear);
-    let refined = pass != StreamPass::Frame;
-    if pass != StreamPass::NextPass {
-        target.pixels.clear(options.background);
-    }
-    if pass == StreamPass::FirstPass {
-        stream.begin_refined();
-    }
-    let kind = PassKind::Stream {
-        stream,
-        frame: &frame,
-        refined,
-    };
-    let stats = run_into(
-        &mut target.pixels,
-        target.table,
-        options.kernel,
-        Pass { kind },
-        layer,
-        &mut mark,
-    );
-    Ok(Drawn {
-        stats,
-        table_rebuilt,
-        shadows: ShadowMode::Off,
-        #[cfg(feature = "scene")]
-        scene: None,
-    })
-}
-
-/// Which frame of a stream [`render_stream`] draws.
-#[cfg(feature = "stream")]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum StreamPass {
-    /// A whole frame from what is resident (coarser where blocks are absent).
-    Frame,
-    /// The first pass of a refined frame: clears and starts it.
-    FirstPass,
-    /// The next pass of the refined frame: draws over what the earlier passes drew.
-    NextPass,
-}
-
-/// The shading table's materials: `material` in every slot.
-fn material_table<const M: usize>(material: Material) -> impl FnOnce() -> [Material; M] {
-    move || [material; M]
-}
-
-/// Sets the light's tables in `light` for `grid` (a directional light or a point light), checking
-/// the map against the options.
-#[cfg(feature = "shadows")]
-fn set_light(
-    light: &mut LightFrame,
-    grid: &TriGrid<'_>,
-    options: &RenderOptions,
-    map_len: usize,
-) -> Result<(), RenderError> {
-    let side = options.shadow_map_size;
-    let need = side.checked_mul(side).filter(|&n| n > 0);
-    if need.is_none_or(|n| n > map_len) {
-        return Err(RenderError::ShadowMap {
-            need: need.map_or(u32::MAX, |n| n.min(u32::MAX as usize) as u32),
-            given: map_len.min(u32::MAX as usize) as u32,
-        });
-    }
-    let header = grid.header();
-    let placement = camera::Placement::IDENTITY;
-    match options.light_position {
-        None => light.set(header, &placement, options.light_dir, side),
-        Some(_) if options.shadows == ShadowMode::OnePass => {
-            return Err(RenderError::NoShadows(
-                FileFormat::TriGrid,
-                ShadowMode::OnePass,
-            ))
-        }
-        Some(at) => {
-            *light = LightFrame::point(header, &placement, at, side).map_err(RenderError::Light)?
-        }
-    }
-    Ok(())
-}
-
-/// The steps after a model's setup: the shading table for its material, then [`clear_and_run`].
-fn draw<P: DepthTarget, L: Layer, const M: usize>(
-    target: &mut Target<'_, P, M>,
-    materials: impl FnOnce() -> [Material; M],
-    view_dir: Vec3,
-    options: &RenderOptions,
-    pass: PassKind<'_, '_>,
-    layer: &mut L,
-    mark: &mut impl FnMut(Phase),
-) -> Drawn {
-    let (pixels, table) = (&mut target.pixels, &mut *target.table);
-    draw_parts(
-        pixels, table, materials, view_dir, options, pass, layer, mark,
-    )
-}
-
+/// [`Target::draw`] with the target's parts borrowed apart (a shadowed walk holds its map).
 #[allow(clippy::too_many_arguments)]
-fn draw_parts<P: DepthTarget, L: Layer, const M: usize>(
+fn draw<P: DepthTarget, W: Walk, L: Layer, const M: usize>(
     pixels: &mut P,
     table: &mut ShadingTable<M>,
-    materials: impl FnOnce() -> [Material; M],
-    view_dir: Vec3,
+    walk: &mut W,
+    shading: &Shading<M>,
+    clear: bool,
     options: &RenderOptions,
-    pass: PassKind<'_, '_>,
     layer: &mut L,
     mark: &mut impl FnMut(Phase),
 ) -> Drawn {
     mark(Phase::Table);
-    let table_rebuilt = table.update(&materials(), options.light_dir, view_dir);
-    let shadows = match pass {
-        #[cfg(feature = "shadows")]
-        PassKind::Shadowed { mode, .. } => mode,
-        _ => ShadowMode::Off,
-    };
-    let stats = clear_and_run(pixels, table, options, Pass { kind: pass }, layer, mark);
-    Drawn {
-        stats,
-        table_rebuilt,
-        shadows,
-        #[cfg(feature = "scene")]
-        scene: None,
-    }
-}
-
-/// [`Phase::Clear`], then the pass through `layer` into the shaded raster ([`Phase::Traverse`]),
-/// then [`Phase::End`]: one code path for every format and for scenes.
-fn clear_and_run<P: DepthTarget, L: Layer, const M: usize>(
-    pixels: &mut P,
-    table: &ShadingTable<M>,
-    options: &RenderOptions,
-    pass: Pass<'_, '_>,
-    layer: &mut L,
-    mark: &mut impl FnMut(Phase),
-) -> Stats {
+    let table_rebuilt = shading.apply(table);
     mark(Phase::Clear);
-    pixels.clear(options.background);
-    run_into(pixels, table, options.kernel, pass, layer, mark)
-}
-
-/// [`Phase::Traverse`] and [`Phase::End`]: the pass through `layer` into the shaded raster.
-fn run_into<P: DepthTarget, L: Layer, const M: usize>(
-    pixels: &mut P,
-    table: &ShadingTable<M>,
-    kernel: Kernel,
-    pass: Pass<'_, '_>,
-    layer: &mut L,
-    mark: &mut impl FnMut(Phase),
-) -> Stats {
+    if clear {
+        pixels.clear(options.background);
+    }
     mark(Phase::Traverse);
     let mut sink = ShadedRaster {
         fb: pixels,
-        table,
-        kernel,
+        table: &*table,
+        kernel: options.kernel,
     };
-    let stats = layer.run(pass, &mut sink);
+    let stats = layer.run(walk, &mut sink);
     mark(Phase::End);
-    stats
+    Drawn {
+        stats,
+        table_rebuilt,
+        shadows: options.shadows,
+        ..Drawn::default()
+    }
 }
 
 #[cfg(all(test, feature = "trigrid"))]

@@ -1,18 +1,11 @@
 //! A model of any format, opened by its magic: what [`super::render`] draws.
 
-use core::fmt;
-
-use super::RenderOptions;
-use crate::camera::{Camera, Sphere, View, DEFAULT_FOV_DEG};
+use super::formats::Drawable;
+use super::{Drawn, Layer, ModelError, Phase, RenderError, RenderOptions, Target};
+use crate::camera::{Camera, Sphere, View};
 use crate::format::FileFormat;
+use crate::raster::DepthTarget;
 use crate::shade::{Material, ShadowMode};
-
-#[cfg(feature = "qsplat")]
-use crate::qs::{shading_material, QSplat, QsError};
-#[cfg(feature = "scene")]
-use crate::scene::{Pack, PackError, Scene, SceneError};
-#[cfg(feature = "trigrid")]
-use crate::tg::{TgError, TriGrid, Verify};
 
 /// A validated, memory-resident model of any format this build reads: what [`render`](super::render()) draws.
 // Unboxed: there is no heap, and a firmware holds one model (a tri-grid's header and level
@@ -22,68 +15,28 @@ use crate::tg::{TgError, TriGrid, Verify};
 pub enum Model<'a> {
     /// A tri-grid (`.tg`).
     #[cfg(feature = "trigrid")]
-    TriGrid(TriGrid<'a>),
+    TriGrid(crate::tg::TriGrid<'a>),
     /// A QSplat 1.0 file (`.qs`).
     #[cfg(feature = "qsplat")]
-    QSplat(QSplat<'a>),
+    QSplat(crate::qs::QSplat<'a>),
     /// A scene pack (`.pack`) with its objects opened.
     #[cfg(feature = "scene")]
-    Scene(Scene<'a>),
-    /// No format at all: a build with none of the format features (never constructed).
-    #[doc(hidden)]
-    #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-    None(core::marker::PhantomData<&'a ()>, core::convert::Infallible),
+    Scene(crate::scene::Scene<'a>),
 }
 
-/// Why a file cannot be opened as a [`Model`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModelError {
-    /// The first bytes are no format's magic.
-    UnknownFormat,
-    /// A format this build leaves out (its cargo feature is off).
-    NotBuilt(FileFormat),
-    /// Not a valid tri-grid.
-    #[cfg(feature = "trigrid")]
-    TriGrid(TgError),
-    /// Not a valid QSplat file.
-    #[cfg(feature = "qsplat")]
-    QSplat(QsError),
-    /// Not a valid scene pack.
-    #[cfg(feature = "scene")]
-    Pack(PackError),
-    /// A scene pack one of whose objects is not valid or cannot be drawn.
-    #[cfg(feature = "scene")]
-    Scene(SceneError),
-}
-
-impl core::error::Error for ModelError {}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::UnknownFormat => {
-                write!(
-                    f,
-                    "not a tri-grid, QSplat file or scene pack (unknown magic)"
-                )
-            }
-            ModelError::NotBuilt(format) => write!(
-                f,
-                "a {} file: this build leaves its format out (cargo feature `{}`)",
-                format.name(),
-                format.feature()
-            ),
+/// Runs `$body` with `$m` bound to the model's reader, whatever its format ([`Drawable`]): the
+/// one place that lists the variants.
+macro_rules! each_format {
+    ($model:expr, $m:ident => $body:expr) => {
+        match $model {
             #[cfg(feature = "trigrid")]
-            ModelError::TriGrid(e) => write!(f, "tri-grid: {e}"),
+            Model::TriGrid($m) => $body,
             #[cfg(feature = "qsplat")]
-            ModelError::QSplat(e) => write!(f, "QSplat: {e}"),
+            Model::QSplat($m) => $body,
             #[cfg(feature = "scene")]
-            ModelError::Pack(e) => write!(f, "scene pack: {e}"),
-            #[cfg(feature = "scene")]
-            ModelError::Scene(e) => write!(f, "scene pack: {e}"),
+            Model::Scene($m) => $body,
         }
-    }
+    };
 }
 
 impl<'a> Model<'a> {
@@ -93,7 +46,7 @@ impl<'a> Model<'a> {
     /// [`ModelError`]: an unknown magic, a format this build leaves out, or a damaged file.
     pub fn open(bytes: &'a [u8]) -> Result<Self, ModelError> {
         #[cfg(feature = "trigrid")]
-        return Self::open_with(bytes, Verify::Full);
+        return Self::open_with(bytes, crate::tg::Verify::Full);
         #[cfg(not(feature = "trigrid"))]
         Self::open_any(bytes)
     }
@@ -104,15 +57,15 @@ impl<'a> Model<'a> {
     /// # Errors
     /// As [`Model::open`].
     #[cfg(feature = "trigrid")]
-    pub fn open_with(bytes: &'a [u8], verify: Verify) -> Result<Self, ModelError> {
+    pub fn open_with(bytes: &'a [u8], verify: crate::tg::Verify) -> Result<Self, ModelError> {
         match FileFormat::sniff(bytes) {
-            Some(FileFormat::TriGrid) => TriGrid::open(bytes, verify)
+            Some(FileFormat::TriGrid) => crate::tg::TriGrid::open(bytes, verify)
                 .map(Model::TriGrid)
                 .map_err(ModelError::TriGrid),
             #[cfg(feature = "scene")]
             Some(FileFormat::Pack) => {
-                let pack = Pack::open(bytes).map_err(ModelError::Pack)?;
-                Scene::open(pack, verify)
+                let pack = crate::scene::Pack::open(bytes).map_err(ModelError::Pack)?;
+                crate::scene::Scene::open(pack, verify)
                     .map(Model::Scene)
                     .map_err(ModelError::Scene)
             }
@@ -124,7 +77,7 @@ impl<'a> Model<'a> {
     fn open_any(bytes: &'a [u8]) -> Result<Self, ModelError> {
         match FileFormat::sniff(bytes) {
             #[cfg(feature = "qsplat")]
-            Some(FileFormat::QSplat) => QSplat::open(bytes)
+            Some(FileFormat::QSplat) => crate::qs::QSplat::open(bytes)
                 .map(Model::QSplat)
                 .map_err(ModelError::QSplat),
             Some(format) => Err(ModelError::NotBuilt(format)),
@@ -134,94 +87,50 @@ impl<'a> Model<'a> {
 
     /// The model's format.
     pub fn format(&self) -> FileFormat {
-        match self {
-            #[cfg(feature = "trigrid")]
-            Model::TriGrid(_) => FileFormat::TriGrid,
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(_) => FileFormat::QSplat,
-            #[cfg(feature = "scene")]
-            Model::Scene(_) => FileFormat::Pack,
-            #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-            Model::None(_, never) => match *never {},
-        }
+        each_format!(self, m => m.format())
     }
 
     /// The sphere the views orbit: around the model's bounding box (a tri-grid's precise box when
     /// it has one), or a scene's.
     pub fn sphere(&self) -> Sphere {
-        match self {
-            #[cfg(feature = "trigrid")]
-            Model::TriGrid(grid) => Sphere::from_bounds_f64(grid.header().bounds64),
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => Sphere::from_bounds(file.bounds()),
-            #[cfg(feature = "scene")]
-            Model::Scene(scene) => scene.sphere(),
-            #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
-            Model::None(_, never) => match *never {},
-        }
+        each_format!(self, m => m.sphere())
     }
 
     /// The orbit camera of `view` about [`Model::sphere`]: the default 45° field of view (a
     /// scene's own), for the reference 240 × 320 image ([`render`](super::render()) fits it to the target).
     pub fn orbit(&self, view: View) -> Camera {
-        #[cfg(feature = "scene")]
-        if let Model::Scene(scene) = self {
-            return scene.camera(view);
-        }
-        Camera::orbit(self.sphere(), view, DEFAULT_FOV_DEG)
+        each_format!(self, m => m.orbit(view))
     }
 
     /// The material the shading table gives samples drawn with `base`: `base`, in white for a
     /// coloured QSplat file (whose colours then modulate it; a scene's objects bring their own).
     pub fn material(&self, base: Material) -> Material {
-        match self {
-            #[cfg(feature = "qsplat")]
-            Model::QSplat(file) => shading_material(file, base),
-            #[allow(unreachable_patterns)] // a build with no format has no model
-            _ => base,
-        }
+        each_format!(self, m => m.material(base))
     }
 
     /// The options a model is drawn with by default: [`RenderOptions::default`], or a scene
     /// pack's light, shadows and shadow map size.
     pub fn options(&self) -> RenderOptions {
-        #[cfg(feature = "scene")]
-        if let Model::Scene(scene) = self {
-            return scene.options();
-        }
-        RenderOptions::default()
+        each_format!(self, m => m.options())
     }
 
     /// The shadow modes [`render`](super::render()) draws this model in, in this build: all three for a tri-grid or
     /// a scene with the `shadows` feature, [`ShadowMode::Off`] otherwise (QSplat files have no
     /// shadows).
     pub fn shadow_modes(&self) -> &'static [ShadowMode] {
-        let shadowed = matches!(self.format(), FileFormat::TriGrid | FileFormat::Pack);
-        if shadowed && cfg!(feature = "shadows") {
-            &ShadowMode::ALL
-        } else {
-            &[ShadowMode::Off]
-        }
+        each_format!(self, m => m.shadow_modes())
     }
-}
 
-#[cfg(feature = "trigrid")]
-impl<'a> From<TriGrid<'a>> for Model<'a> {
-    fn from(grid: TriGrid<'a>) -> Self {
-        Model::TriGrid(grid)
-    }
-}
-
-#[cfg(feature = "qsplat")]
-impl<'a> From<QSplat<'a>> for Model<'a> {
-    fn from(file: QSplat<'a>) -> Self {
-        Model::QSplat(file)
-    }
-}
-
-#[cfg(feature = "scene")]
-impl<'a> From<Scene<'a>> for Model<'a> {
-    fn from(scene: Scene<'a>) -> Self {
-        Model::Scene(scene)
+    /// One frame of the model for `camera` (fitted to the target) into `target`: its format's
+    /// set-up, then the pipeline.
+    pub(super) fn draw<P: DepthTarget, L: Layer, const M: usize>(
+        &self,
+        camera: &Camera,
+        options: &RenderOptions,
+        target: &mut Target<'_, P, M>,
+        layer: &mut L,
+        mark: &mut impl FnMut(Phase),
+    ) -> Result<Drawn, RenderError> {
+        each_format!(self, m => m.draw(camera, options, target, layer, mark))
     }
 }

@@ -1,5 +1,6 @@
 use super::*;
 use crate::camera::View;
+use crate::format::FileFormat;
 use crate::raster::{DisplayTarget, Framebuffer};
 use embedded_graphics_core::pixelcolor::raw::RawU16;
 use embedded_graphics_core::prelude::*;

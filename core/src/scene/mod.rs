@@ -3,7 +3,7 @@
 //!
 //! The byte layout is specified in `PACK.md` beside this file, included below. [`pack`] reads it
 //! (no_std; validate once, then no accessor can panic), `write` produces it (`bake` feature), and
-//! [`render`] draws a scene: every object through its own tri-grid frame, all of them into one
+//! [`render_scene`] draws a scene: every object through its own tri-grid frame, all of them into one
 //! z-buffer over a depth range they share ([`crate::tg::frame::TgFrame::share_depth_range`]), with
 //! one shadow map they all fill ([`crate::shadow::LightSpace`], feature `shadows`) and one shading
 //! table whose slots are the objects' materials. An object may also be a QSplat file (`.qs`, kind
@@ -16,18 +16,19 @@
 //! ```
 #![doc = include_str!("PACK.md")]
 
+mod budget;
+mod draw;
+mod open;
 pub mod pack;
-pub mod render;
 #[cfg(feature = "bake")]
 pub mod write;
 
-pub use pack::{Pack, PackError};
+pub use budget::{ram_budget, shading_table_bytes, RamBudget};
 #[cfg(feature = "shadows")]
-pub use render::render_scene_in;
-pub use render::{
-    ram_budget, render_scene, shading_table_bytes, slot_attr, slot_bits, RamBudget, Scene,
-    SceneError, SceneStats,
-};
+pub use draw::render_scene_in;
+pub use draw::{render_scene, slot_attr, slot_bits, SceneWalk};
+pub use open::{Scene, SceneError, SceneStats};
+pub use pack::{Pack, PackError};
 
 use crate::camera::Placement;
 use crate::shade::Material;

@@ -2,7 +2,6 @@
 //! space, the displacement and extent tables, the biases, the sub-cell order of one-pass shadows,
 //! and the light space a scene's objects share.
 
-use super::hooks::LightPos;
 use super::{LIGHT_FRAC, MAX_POINT_MAP_SIZE};
 use crate::camera::{self, Placement, Sphere, Vec3};
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
@@ -10,6 +9,10 @@ use crate::tg::frame::{round_to_i32, slot_dots, SlotTable, MAX_SLOTS, SLOT_TABLE
 use crate::tg::read::Header;
 use crate::tg::traverse::SlotOrder;
 use crate::tg::MAX_LEVELS;
+
+/// Light-space position: U, V (Q8 texels), D (Q8 depth); for a point light, homogeneous `Uh`, `Vh`
+/// and `W` (texel = `Uh / W`).
+pub type LightPos = [i32; 3];
 
 /// Why a light cannot be set up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

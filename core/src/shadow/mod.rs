@@ -58,10 +58,12 @@ mod hooks;
 mod light;
 
 use hooks::Fill;
-pub use hooks::{LightPos, OnePass, TwoPass};
-pub use light::{LightError, LightFrame, LightSpace};
+pub use hooks::{OnePass, TwoPass};
+pub use light::{LightError, LightFrame, LightPos, LightSpace};
 
-use crate::splat::{SplatSink, Stats};
+use crate::camera::Placement;
+use crate::frame::{RenderOptions, Walk};
+use crate::splat::{ColorSink, SplatSink, Stats};
 use crate::tg::frame::TgFrame;
 use crate::tg::read::TriGrid;
 use crate::tg::traverse::{fill_tg, render_tg_with};
@@ -170,6 +172,91 @@ impl<'a> ShadowMap<'a> {
 }
 
 pub use crate::shade::ShadowMode;
+
+/// Why a tri-grid frame cannot have the shadows its options ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ShadowSetupError {
+    /// The map buffer holds fewer depths than the options' side² (`need`), or the side is 0.
+    Map {
+        /// Depths the map needs.
+        need: u32,
+        /// Depths the buffer has.
+        given: u32,
+    },
+    /// One-pass shadows of a point light (Duguet §5.3's sub-cell order needs one light
+    /// direction): a point light is two-pass.
+    OnePassPointLight,
+    /// The light cannot be set up.
+    Light(LightError),
+}
+
+/// A tri-grid frame with the shadows its options ask for, ready to walk ([`Walk`]): the light's
+/// tables set, the map borrowed.
+pub struct ShadowedWalk<'a, 'g> {
+    grid: &'a TriGrid<'g>,
+    frame: &'a TgFrame,
+    light: &'a LightFrame,
+    map: ShadowMap<'a>,
+    mode: ShadowMode,
+}
+
+impl<'a, 'g> ShadowedWalk<'a, 'g> {
+    /// Sets the light's tables in `light` for `grid` (the options' directional light, or their
+    /// point light), checking `map` against the options' side.
+    ///
+    /// # Errors
+    /// [`ShadowSetupError`]: a map smaller than the options' side², one-pass shadows of a point
+    /// light, a light that cannot be set up.
+    pub fn new(
+        grid: &'a TriGrid<'g>,
+        frame: &'a TgFrame,
+        options: &RenderOptions,
+        map: &'a mut [u16],
+        light: &'a mut LightFrame,
+    ) -> Result<Self, ShadowSetupError> {
+        let side = options.shadow_map_size;
+        let need = side.checked_mul(side).filter(|&n| n > 0);
+        if need.is_none_or(|n| n > map.len()) {
+            return Err(ShadowSetupError::Map {
+                need: need.map_or(u32::MAX, |n| n.min(u32::MAX as usize) as u32),
+                given: map.len().min(u32::MAX as usize) as u32,
+            });
+        }
+        let header = grid.header();
+        let placement = Placement::IDENTITY;
+        match options.light_position {
+            None => light.set(header, &placement, options.light_dir, side),
+            Some(_) if options.shadows == ShadowMode::OnePass => {
+                return Err(ShadowSetupError::OnePassPointLight)
+            }
+            Some(at) => {
+                *light = LightFrame::point(header, &placement, at, side)
+                    .map_err(ShadowSetupError::Light)?
+            }
+        }
+        Ok(Self {
+            grid,
+            frame,
+            light,
+            map: ShadowMap::new(map, side),
+            mode: options.shadows,
+        })
+    }
+}
+
+impl Walk for ShadowedWalk<'_, '_> {
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
+        render_tg_shadowed(
+            self.grid,
+            self.frame,
+            self.light,
+            &mut self.map,
+            self.mode,
+            sink,
+        )
+    }
+}
 
 /// Fills `map` (cleared first) with the grid's depth seen from the light. Returns nodes visited.
 pub fn fill_shadow_map(

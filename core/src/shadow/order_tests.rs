@@ -3,7 +3,7 @@ use super::*;
 use crate::bake::{bake_grid, BakeOptions, TriMesh};
 use crate::camera::{self, Placement, Sphere};
 use crate::camera::{Camera, View, STANDARD_VIEWS};
-use crate::render::RenderOptions;
+use crate::frame::RenderOptions;
 use crate::splat::SampleSplat;
 use crate::tg::traverse::{ShadowHooks, SlotOrder};
 use crate::tg::write::write_tg;
@@ -62,8 +62,11 @@ impl ShadowHooks for OrderedEverywhere<'_, '_, '_, '_> {
     fn light_stop(&self, level: usize) -> bool {
         self.0.light_stop(level)
     }
-    fn descended(&mut self, level: usize, p: LightPos) {
-        self.0.descended(level, p);
+    fn casts_subtree(&mut self, level: usize, p: LightPos, mask: u32) {
+        self.0.casts_subtree(level, p, mask);
+    }
+    fn descended(&mut self, level: usize, p: LightPos, mask: u32) {
+        self.0.descended(level, p, mask);
     }
 }
 

@@ -38,6 +38,7 @@
 mod cache;
 mod nodes;
 mod open;
+mod priority;
 mod tg;
 pub mod torture;
 
@@ -46,7 +47,8 @@ pub mod sdmmc;
 
 pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
 pub use open::{read_tg_header, OPEN_ATTEMPTS};
-pub use tg::{size_class, stream_priority, ServeReport, StreamCounters, TgStream, QUEUE_CAPACITY};
+pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
+pub use tg::{ServeReport, StreamCounters, StreamWalk, TgStream};
 
 use crate::tg::TgError;
 

@@ -7,7 +7,7 @@ use core::cell::Cell;
 use heapless::Vec;
 
 use super::cache::{BlockCache, BRICK_BAD, BRICK_OK, NOT_QUEUED, NO_SLOT};
-use super::tg::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
+use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
 use crate::tg::brick::{check_brick, Array, Brick, BrickEntry};
 use crate::tg::read::{Header, LevelDir};
 use crate::tg::traverse::NodeData;

@@ -8,38 +8,21 @@ use heapless::Vec;
 use super::cache::{BlockCache, BlockEntry, SlotEntry, NOT_QUEUED, NO_SLOT};
 use super::nodes::{Bricks, Entered, Level, PassState, Phase, Refine, Request, StreamNodes};
 use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
+use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
-use crate::splat::{SampleSplat, SplatSink, Stats};
+use crate::frame::Walk;
+use crate::splat::{ColorSink, SampleSplat, SplatSink, Stats};
 use crate::tg::brick::band_end;
 use crate::tg::read::{check_block, Header, LevelDir};
 use crate::tg::traverse::{render_nodes, NoShadows, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
 
-/// Requests one frame may queue; further ones replace the lowest or are dropped (and counted).
-pub const QUEUE_CAPACITY: usize = 256;
 /// Longest backoff after repeated failures, frames.
 const MAX_BACKOFF: u32 = 64;
-/// Priority of the root's own blocks: before anything else.
-pub(crate) const ROOT_PRIORITY: u32 = u32::MAX;
+
 /// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
 const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
-
-/// Splat size class: ⌊log_√2 size⌋ of the diameter in Q8 pixels (Streaming QSplat §4.2 uses
-/// k = √2: each class holds about twice the nodes of the one above).
-pub fn size_class(size_q8: i32) -> u32 {
-    let s = size_q8.max(1) as u32;
-    let l = 31 - s.leading_zeros();
-    let half = u64::from(s) * u64::from(s) >= 1u64 << (2 * l + 1);
-    2 * l + u32::from(half)
-}
-
-/// Streaming QSplat's priority (§4.2), larger first: the size class, then the screen row from the
-/// top, so that the model refines in top-to-bottom sweeps of decreasing splat size.
-pub fn stream_priority(size_q8: i32, y_q8: i32) -> u32 {
-    let row = (y_q8 >> crate::fixed::SUBPIXEL_BITS).clamp(0, 0xFFFF) as u32;
-    size_class(size_q8) << 16 | (0xFFFF - row)
-}
 
 /// Cumulative counts of a stream: what was read, what failed, what was evicted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -108,6 +91,28 @@ pub struct TgStream<'a> {
     refine: Refine,
     /// Whether the last frame was a pass: [`TgStream::serve`] then reads in block order.
     passing: bool,
+}
+
+/// A streamed tri-grid's frame ready to walk ([`Walk`]): what is resident is drawn and what is
+/// missing queued ([`TgStream::render`]), or, `refined`, the next pass of a refined frame
+/// ([`TgStream::render_pass`]).
+pub struct StreamWalk<'a, 's> {
+    /// The stream.
+    pub stream: &'a mut TgStream<'s>,
+    /// Its frame.
+    pub frame: &'a TgFrame,
+    /// The next pass of a refined frame instead of a frame from what is resident.
+    pub refined: bool,
+}
+
+impl Walk for StreamWalk<'_, '_> {
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
+        if self.refined {
+            self.stream.render_pass(self.frame, sink)
+        } else {
+            self.stream.render(self.frame, sink)
+        }
+    }
 }
 
 /// A sink that draws only while a pass has drawn nothing out of order yet.
@@ -631,33 +636,5 @@ impl<'a> TgStream<'a> {
             let e = &self.cache.blocks[b];
             e.slot == NO_SLOT && self.ready(e)
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn size_classes_are_half_octaves() {
-        assert_eq!(size_class(0), 0);
-        assert_eq!(size_class(1), 0);
-        assert_eq!(size_class(2), 2);
-        assert_eq!(size_class(3), 3);
-        assert_eq!(size_class(16), 8);
-        assert_eq!(size_class(23), 9);
-        assert_eq!(size_class(22), 8);
-        assert_eq!(size_class(32), 10);
-        assert!(size_class(i32::MAX) < 64);
-    }
-
-    #[test]
-    fn larger_splats_first_then_top_rows() {
-        let big_low = stream_priority(64 * 256, 300 * 256);
-        let big_high = stream_priority(64 * 256, 10 * 256);
-        let small_high = stream_priority(8 * 256, 0);
-        assert!(big_high > big_low && big_low > small_high);
-        // Off-screen rows clamp instead of wrapping.
-        assert_eq!(stream_priority(16, -5000), stream_priority(16, 0));
     }
 }

@@ -12,17 +12,9 @@
 //! block cache), so that the same code checks a file in flash, in RAM or streamed.
 #![deny(clippy::float_arithmetic)]
 
-use super::read::{mask_word_ok, slot_bits, Header, LevelDir, TgError};
+pub use super::header::{entry_bytes, ENTRY_HEAD};
+use super::header::{mask_word_ok, slot_bits, Header, LevelDir, TgError};
 use super::MAX_LEVELS;
-
-/// Bytes of a brick-table entry before its per-level first indices: first cell, first block.
-pub const ENTRY_HEAD: usize = 8;
-
-/// Bytes of one brick-table entry of a grid of `depth` bricked below level `level`: the first cell
-/// at `level`, the first block, and the first index at each level `level + 1..=depth`.
-pub const fn entry_bytes(level: u8, depth: u8) -> usize {
-    ENTRY_HEAD + 4 * depth.saturating_sub(level) as usize
-}
 
 /// One entry of the brick table.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -7,8 +7,8 @@
 #![deny(clippy::float_arithmetic)]
 
 use super::brick::{self, Array};
+use super::nodes::NodeData;
 use super::read::TriGrid;
-use super::traverse::NodeData;
 use super::MAX_LEVELS;
 
 /// A validated, bricked, memory-resident grid as the walk reads it.

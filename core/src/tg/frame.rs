@@ -34,9 +34,9 @@
 use super::read::Header;
 use super::MAX_LEVELS;
 use crate::camera::{Camera, Placement, Projection, Vec3, Viewport, PROJECTED_RANGE};
+use crate::frame::{FrameError, RenderOptions};
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
 use crate::raster::Kernel;
-use crate::render::{FrameError, RenderOptions};
 
 /// Child slots of the largest ρ the traversal draws (ρ = 3).
 pub const MAX_SLOTS: usize = 27;

@@ -35,9 +35,17 @@ pub trait ShadowHooks {
     fn casts(&mut self, level: usize, p: Self::Pos);
     /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
     fn light_stop(&self, level: usize) -> bool;
-    /// A cell at `level`, drawn by the view walk or not, whose children have all been visited.
+    /// Where a fill-only descent stops ([`ShadowHooks::light_stop`]): the cell at `level`, whose
+    /// children are the slots of `mask` (its child bits only), casts. By default as one sample.
     #[inline(always)]
-    fn descended(&mut self, _level: usize, _p: Self::Pos) {}
+    fn casts_subtree(&mut self, level: usize, p: Self::Pos, mask: u32) {
+        let _ = mask;
+        self.casts(level, p);
+    }
+    /// A cell at `level` whose children (the slots of `mask`, its child bits only) have all been
+    /// visited by the view walk.
+    #[inline(always)]
+    fn descended(&mut self, _level: usize, _p: Self::Pos, _mask: u32) {}
 }
 
 /// No shadows: every hook is a no-op and the light-space position is `()`.

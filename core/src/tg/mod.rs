@@ -8,6 +8,7 @@ pub mod brick;
 pub(crate) mod bricked;
 mod error;
 pub mod frame;
+mod header;
 mod hooks;
 mod nodes;
 pub mod read;
@@ -18,7 +19,7 @@ pub mod write;
 pub use frame::TgFrame;
 pub use read::{Header, LevelArrays, LevelDir, TgError, TriGrid, Verify};
 pub use traverse::{
-    render_nodes, render_tg, render_tg_with, NoShadows, NodeData, Resident, ShadowHooks,
+    render_nodes, render_tg, render_tg_with, NoShadows, NodeData, Resident, ShadowHooks, TgWalk,
 };
 
 /// File magic.

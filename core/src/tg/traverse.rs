@@ -14,9 +14,10 @@ pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
 use crate::fixed::{recip, SUBPIXEL_BITS};
+use crate::frame::Walk;
 use crate::normal::NORMALS_Q14;
 use crate::raster::exact_footprint;
-use crate::splat::{SampleSplat, SplatSink, Stats};
+use crate::splat::{ColorSink, SampleSplat, SplatSink, Stats};
 
 /// The children's centroid tables: for a 9-bit layer `m` of a ρ = 3 mask (the 9 slots of one `k`),
 /// `count | (Σ(2i − 2) + 32) << 8 | (Σ(2j − 2) + 32) << 16` over its set bits, so that the three
@@ -76,6 +77,24 @@ static RECIP_COUNT: [i32; 32] = {
     }
     t
 };
+
+/// A tri-grid's frame ready to walk: the grid, its frame's tables and the shadow hooks (none by
+/// default). What the pipeline runs ([`Walk`]); [`render_tg_with`] is the same walk as a call.
+pub struct TgWalk<'a, 'g, H = NoShadows> {
+    /// The grid.
+    pub grid: &'a TriGrid<'g>,
+    /// Its frame.
+    pub frame: &'a TgFrame,
+    /// What a shadow algorithm adds.
+    pub hooks: H,
+}
+
+impl<H: ShadowHooks> Walk for TgWalk<'_, '_, H> {
+    #[inline]
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
+        render_tg_with(self.grid, self.frame, &mut self.hooks, sink)
+    }
+}
 
 /// Draws one frame of `grid` set up by `frame` into `sink`, and returns what it did.
 ///
@@ -397,7 +416,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 },
             );
         }
-        self.hooks.descended(l, p);
+        self.hooks.descended(l, p, mask & Self::SLOT_BITS);
     }
 
     /// The children of cell `index` at `level` (inside the frustum) when all of their children
@@ -496,7 +515,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             } else {
                 self.draw_children(next, k, cm, first, cc, cp, true);
             }
-            self.hooks.descended(n, cp);
+            self.hooks.descended(n, cp, cm & Self::SLOT_BITS);
         }
     }
 
@@ -776,15 +795,22 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         if level != self.frame.depth && !self.hooks.light_stop(l) {
             self.enter(level, index);
         }
-        if level == self.frame.depth
-            || self.hooks.light_stop(l)
-            || (D::STREAMED
-                && !self.data.children_resident(
-                    level,
-                    index,
-                    first_child,
-                    (mask & Self::SLOT_BITS).count_ones(),
-                ))
+        if level == self.frame.depth {
+            self.hooks.casts(l, p);
+            return;
+        }
+        if self.hooks.light_stop(l) {
+            // The cell's mask says where its children are: enough to cast them.
+            self.hooks.casts_subtree(l, p, mask & Self::SLOT_BITS);
+            return;
+        }
+        if D::STREAMED
+            && !self.data.children_resident(
+                level,
+                index,
+                first_child,
+                (mask & Self::SLOT_BITS).count_ones(),
+            )
         {
             self.hooks.casts(l, p);
             return;

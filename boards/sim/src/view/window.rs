@@ -92,7 +92,10 @@ impl Viewer {
             settings,
             ..ViewOptions::default()
         };
-        self.run_scene(&mut Shown::new((*grid).into()), &opts)
+        self.run_scene(
+            &mut Shown::new(pocketsplat_core::Model::TriGrid(*grid)),
+            &opts,
+        )
     }
 
     /// Shows `scene` (in frames of the window's size, whatever `opts.settings.size` says) until

@@ -1,16 +1,22 @@
-//! How to draw a frame ([`RenderOptions`]: one set of options for every format and for scenes)
-//! and why a format's frame cannot be set up ([`FrameError`]).
+//! What every frame needs, whatever its format: how to draw it ([`RenderOptions`]), why it cannot
+//! be set up ([`FrameError`]), what its shading table holds ([`Shading`]) and the one interface
+//! between a format's traversal and the pipeline ([`Walk`]).
+//!
+//! This is the ground floor of the renderer: the formats (`tg`, `qs`), shadows, streams and
+//! scenes build on it, and the facade ([`crate::render`]) puts them together. Nothing here
+//! imports from a format or from the facade (docs/ARCHITECTURE.md "Layout").
 
 use core::fmt;
 
 use crate::camera::{self, Vec3};
 use crate::raster::Kernel;
-use crate::shade::{Material, ShadowMode, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+use crate::shade::{Material, ShadingTable, ShadowMode, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
+use crate::splat::{ColorSink, Stats};
 
 /// How to draw a frame: the level of detail, the splats, the light and the shadows.
 ///
 /// One set of options for every format and for scenes: a format or a build reads what it uses
-/// (QSplat files have no shadows; a scene pack brings its own materials, [`Model::options`](super::Model::options) its
+/// (QSplat files have no shadows; a scene pack brings its own materials, [`Model::options`](crate::render::Model::options) its
 /// light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -88,5 +94,46 @@ impl fmt::Display for FrameError {
                 write!(f, "camera, placement or cutoff is not finite and positive")
             }
         }
+    }
+}
+
+/// A frame set up for a camera and ready to walk: a format's traversal with its per-frame tables
+/// (and its shadow hooks, its stream, its scene's objects). The pipeline ([`crate::render`]) runs
+/// every format through this one call, into the shaded raster or a caller's sink in front of it.
+pub trait Walk {
+    /// Walks the model into `sink`; returns what the walk counted.
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats;
+}
+
+impl<W: Walk + ?Sized> Walk for &mut W {
+    #[inline(always)]
+    fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
+        (**self).walk(sink)
+    }
+}
+
+/// What a frame's shading table holds: per slot, the material and the light and view directions
+/// in the model frame of the samples that use it (a scene's objects may be rotated).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading<const M: usize> {
+    /// Each slot's material.
+    pub materials: [Material; M],
+    /// Each slot's (towards the light, towards the viewer), unit vectors in its model frame.
+    pub dirs: [(Vec3, Vec3); M],
+}
+
+impl<const M: usize> Shading<M> {
+    /// `material` in every slot, lit from `light_dir` and seen from `view_dir`.
+    pub fn uniform(material: Material, light_dir: Vec3, view_dir: Vec3) -> Self {
+        Self {
+            materials: [material; M],
+            dirs: [(light_dir, view_dir); M],
+        }
+    }
+
+    /// Makes `table` hold this shading, rebuilding only the slots that changed; returns whether
+    /// any did.
+    pub fn apply(&self, table: &mut ShadingTable<M>) -> bool {
+        table.update_slots(&self.materials, &self.dirs)
     }
 }
