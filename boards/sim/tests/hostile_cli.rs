@@ -544,3 +544,28 @@ fn the_precise_root_cube_is_held_to_what_rendering_draws() {
         assert!(stats["splats"].as_u64().unwrap() > 100, "{name}: {stats}");
     }
 }
+
+/// Every error names the file it is about (issue 33): a ρ = 4 file, which the renderer does not
+/// draw ("rendering supports rho 2 and 3, not 4" named none), resident and streamed, and an
+/// argument the command refuses while reading a file.
+#[test]
+fn errors_name_the_file_they_are_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    succeeds(
+        d,
+        &[
+            "bake", "oct.ply", "-o", "r4.tg", "--rho", "4", "--depth", "2",
+        ],
+    );
+    succeeds(d, &["info", "r4.tg"]);
+    for args in [
+        vec!["render", "r4.tg", "-o", "out.png"],
+        vec!["render", "r4.tg", "-o", "out.png", "--stream"],
+        vec!["render", "r4.tg", "-o", "out.png", "--view", "0,0,0"],
+    ] {
+        let err = fails(d, &args, &["r4.tg"]);
+        assert!(err.starts_with("error: r4.tg: "), "{err}");
+    }
+}
