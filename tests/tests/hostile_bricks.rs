@@ -72,6 +72,7 @@ fn streamed(bytes: &[u8], settings: &Settings, cache_bytes: usize) -> Result<u32
         io_budget: 64 * 1024,
         cache_bytes,
         max_frames: 400,
+        ..StreamOptions::default()
     };
     stream_render(&mut MemSource::new(bytes), settings, &opts, &mut fb)
         .map(|_| fb.crc())

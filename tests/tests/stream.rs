@@ -56,6 +56,7 @@ fn opts(cache_bytes: usize) -> StreamOptions {
         io_budget: IO_BUDGET,
         cache_bytes,
         max_frames: 3000,
+        ..StreamOptions::default()
     }
 }
 
@@ -287,7 +288,7 @@ fn hostile_sources_give_errors_not_panics() {
     let mut slots = vec![SlotEntry::EMPTY; 16];
     let mut tiny = vec![0u8; 3 * 4096];
     let err = TgStream::open(&mut src, &mut tiny, &mut slots, &mut blocks).unwrap_err();
-    assert!(err.to_string().contains("needs at least 4"), "{err}");
+    assert!(err.to_string().contains("needs 4 blocks"), "{err}");
     // A file cut short: blocks past the end fail to read, the frame stays coarse, no panic. An
     // eighth ends inside level 5, which the standard view draws.
     let cut = &big[..big.len() / 8];
@@ -526,8 +527,10 @@ mod hostile {
             .map(|(_, d)| d.iter().map(|l| u64::from(l.count)).sum())
             .unwrap_or(u64::MAX);
         let settings = Settings::default();
-        let mut mem =
-            OwnedStream::new(&mut *src, bytes.len()).map_err(|e| format!("at open: {e:#}"))?;
+        // The whole file, and at least the cache a stream of it needs (a tiny file needs 4
+        // blocks, more than it has).
+        let cache = bytes.len().max(1 << 20);
+        let mut mem = OwnedStream::new(&mut *src, cache).map_err(|e| format!("at open: {e:#}"))?;
         let mut stream = mem.open(&mut *src).map_err(|e| format!("at open: {e:#}"))?;
         let cam = camera_for(&stream, &settings);
         let mut table = Box::new(ShadingTable::<1>::new());

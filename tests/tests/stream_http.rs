@@ -170,6 +170,7 @@ fn the_dragon_streams_from_nginx_and_converges_to_the_local_file_frame() {
         io_budget: 16 * 4096,
         cache_bytes: file.len(),
         max_frames: 5000,
+        ..StreamOptions::default()
     };
     eprintln!("dragon, depth 6, 4 KB blocks: {size} bytes; budget 16 requests (64 KB) per frame");
     eprintln!("view  | frames | requests | body bytes | wire bytes | of file | connections");

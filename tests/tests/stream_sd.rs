@@ -50,6 +50,7 @@ fn the_bunny_streams_from_a_fat_image_through_embedded_sdmmc() {
         io_budget: 128 * 1024,
         cache_bytes: file.len() / 2,
         max_frames: 500,
+        ..StreamOptions::default()
     };
     for (name, view) in STANDARD_VIEWS {
         let settings = Settings {

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use crate::limits;
+use crate::{limits, memory};
 
 /// Opens `path` for reading if it is a regular file (not a folder, device or FIFO, whose reads
 /// may never end); returns it with its length.
@@ -91,7 +91,11 @@ pub fn read_limited(path: &Path, limit: &'static str, max: u64) -> Result<Vec<u8
     if len > max {
         return Err(too_big(len));
     }
-    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    // The length was checked against the limit; whether the memory is there is asked, not
+    // assumed (a raised limit on a machine without the memory is an error, not an abort).
+    let mut bytes = Vec::new();
+    memory::reserve(&mut bytes, usize::try_from(len).unwrap_or(usize::MAX))
+        .with_context(|| format!("cannot read {}", path.display()))?;
     file.take(max.saturating_add(1))
         .read_to_end(&mut bytes)
         .with_context(|| format!("cannot read {}", path.display()))?;

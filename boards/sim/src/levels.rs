@@ -46,22 +46,30 @@ impl Levels {
     }
 
     /// One QSplat file: walks its whole tree once.
-    pub fn of_qsplat(file: &QSplat<'_>) -> Self {
-        Self {
-            objects: vec![tree_levels(file)],
-        }
+    ///
+    /// # Errors
+    /// When the memory for a level per byte of the file cannot be had.
+    pub fn of_qsplat(file: &QSplat<'_>) -> anyhow::Result<Self> {
+        Ok(Self {
+            objects: vec![tree_levels(file)?],
+        })
     }
 
     /// Every object of a scene pack.
-    pub fn of_scene(scene: &Scene<'_>) -> Self {
+    ///
+    /// # Errors
+    /// As [`Levels::of_qsplat`].
+    pub fn of_scene(scene: &Scene<'_>) -> anyhow::Result<Self> {
         let objects = (0..scene.len())
-            .map(|i| match (scene.grid(i), scene.qsplat(i)) {
-                (Some(g), _) => Object::Grid(u32::from(g.header().depth)),
-                (None, Some(q)) => tree_levels(q),
-                (None, None) => Object::Grid(0),
+            .map(|i| {
+                Ok(match (scene.grid(i), scene.qsplat(i)) {
+                    (Some(g), _) => Object::Grid(u32::from(g.header().depth)),
+                    (None, Some(q)) => tree_levels(q)?,
+                    (None, None) => Object::Grid(0),
+                })
             })
-            .collect();
-        Self { objects }
+            .collect::<anyhow::Result<_>>()?;
+        Ok(Self { objects })
     }
 
     /// Levels between `s`, drawn by object `object`, and full detail below it.
@@ -76,12 +84,13 @@ impl Levels {
     }
 }
 
-fn tree_levels(file: &QSplat<'_>) -> Object {
-    let mut levels = vec![0u8; file.bytes().len()];
+fn tree_levels(file: &QSplat<'_>) -> anyhow::Result<Object> {
+    // A level per byte of the file: as large as the file again.
+    let mut levels = crate::memory::filled(0u8, file.bytes().len())?;
     for tree in file.trees() {
         walk(&tree, tree.root_group(), &mut levels, 0);
     }
-    Object::Tree(levels)
+    Ok(Object::Tree(levels))
 }
 
 /// Sets the levels of `group`'s nodes and their subtrees; returns the largest.
@@ -191,7 +200,7 @@ mod tests {
         )
         .unwrap();
         let file = QSplat::open(&baked.bytes).unwrap();
-        let l = Levels::of_qsplat(&file);
+        let l = Levels::of_qsplat(&file).unwrap();
         let Object::Tree(levels) = &l.objects[0] else {
             panic!("a tree");
         };

@@ -12,6 +12,7 @@ pub mod info;
 pub mod input;
 pub mod levels;
 pub mod limits;
+pub mod memory;
 pub mod metrics;
 pub mod migrate;
 pub mod models;

@@ -5,6 +5,7 @@
 
 mod cli;
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -50,14 +51,42 @@ enum Command {
     },
 }
 
-/// Runs the command; `matches` are the whole command line's, parsed into `cli`.
+impl Command {
+    /// The file the command is about, which its errors name: the input it reads (for a report,
+    /// the mesh, scene or folder of models it measures).
+    fn subject(&self) -> Option<PathBuf> {
+        match self {
+            Command::Bake(a) => Some(a.input().to_path_buf()),
+            Command::Info(a) => Some(a.input().to_path_buf()),
+            Command::Migrate(a) => Some(a.input().to_path_buf()),
+            Command::Render(a) => Some(a.input().to_path_buf()),
+            Command::View(a) => Some(a.input().to_path_buf()),
+            Command::Report { which } => which.subject(),
+        }
+    }
+}
+
+/// Runs the command; `matches` are the whole command line's, parsed into `cli`. An error of a
+/// command that does not name the file it is about gets its name in front (issue 33: every error
+/// names its file; the readers and writers name it themselves, this catches the rest).
 fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
     let mut limits = pocketsplat_sim::limits::Limits::DEFAULT;
     for l in &cli.limits {
         limits.apply(l)?;
     }
     pocketsplat_sim::limits::set_current(limits);
-    match cli.command {
+    let subject = cli.command.as_ref().and_then(Command::subject);
+    run_command(cli.command, matches).map_err(|e| match subject {
+        Some(path) if !format!("{e:#}").contains(&path.display().to_string()) => {
+            e.context(path.display().to_string())
+        }
+        _ => e,
+    })
+}
+
+/// Runs the subcommand (the demo without one).
+fn run_command(command: Option<Command>, matches: &ArgMatches) -> anyhow::Result<()> {
+    match command {
         None => cli::demo::run(),
         Some(Command::Bake(args)) => cli::bake::run(&args),
         Some(Command::Info(args)) => cli::info::run(&args),

@@ -38,6 +38,15 @@ pub fn migrate(input: &Path, out: &Path, layout: Layout) -> Result<String> {
     let bytes = fsutil::read_file(input)?;
     let grid = TriGrid::open(&bytes, Verify::Full)
         .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
+    // Rewriting unpacks every sample (a mask takes 16 bytes in memory, 1 to 16 in the file) and
+    // holds the file twice more: bounded by the `bake` limit before anything is unpacked.
+    crate::limits::current()
+        .check(
+            "bake",
+            "the memory migrating it is estimated to need, bytes",
+            migrate_memory(&grid),
+        )
+        .with_context(|| format!("cannot migrate {}", input.display()))?;
     let written = rewrite_tg(&grid, layout).with_context(|| format!("{}", input.display()))?;
     let h = TriGrid::open(&written, Verify::Full)
         .map(|g| *g.header())
@@ -58,4 +67,16 @@ pub fn migrate(input: &Path, out: &Path, layout: Layout) -> Result<String> {
         out.display(),
         describe(&h, written.len())
     ))
+}
+
+/// Bytes of memory [`migrate`] needs for `grid`, about: the file read, the file written and the
+/// level arrays laid out for it (each about the file's size), and the samples unpacked (attribute,
+/// colour, cone class, and a 16-byte mask per interior cell).
+pub fn migrate_memory(grid: &TriGrid<'_>) -> u64 {
+    let h = grid.header();
+    let file = grid.bytes().len() as u64;
+    let samples = grid.total_samples();
+    let interior = samples - u64::from(grid.leaf_samples());
+    let per_sample = 2 + 1 + if h.has_color() { 2 } else { 0 };
+    3 * file + samples * per_sample + 16 * interior
 }

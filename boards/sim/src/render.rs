@@ -385,12 +385,15 @@ impl Layer for Layers<'_> {
 }
 
 /// The levels colour by resolution needs for `model`.
-pub fn levels_of(model: &Model<'_>) -> Levels {
-    match model {
+///
+/// # Errors
+/// When the memory for a QSplat file's levels cannot be had ([`Levels::of_qsplat`]).
+pub fn levels_of(model: &Model<'_>) -> anyhow::Result<Levels> {
+    Ok(match model {
         Model::TriGrid(grid) => Levels::of_grid(grid.header().depth),
-        Model::QSplat(file) => Levels::of_qsplat(file),
-        Model::Scene(scene) => Levels::of_scene(scene),
-    }
+        Model::QSplat(file) => Levels::of_qsplat(file)?,
+        Model::Scene(scene) => Levels::of_scene(scene)?,
+    })
 }
 
 /// Renders one frame of `model` seen by `cam` into `out` through the core's pipeline
@@ -456,7 +459,10 @@ pub fn render_with<const M: usize>(
     overlay: impl FnOnce(&mut Image, &FrameReport),
 ) -> anyhow::Result<FrameReport> {
     let options = settings.options(model)?;
-    let levels = settings.color_by_level.then(|| levels_of(model));
+    let levels = settings
+        .color_by_level
+        .then(|| levels_of(model))
+        .transpose()?;
     let mut layer = match &levels {
         Some(l) => Layers::Tinted(Tinted(l)),
         None => Layers::Direct,

@@ -8,7 +8,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use pocketsplat_core::camera::Viewport;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::scene::ShadowMode;
@@ -97,7 +97,8 @@ fn render_tg(input: &Path, out: &Path, settings: &Settings) -> Result<serde_json
     let grid =
         TriGrid::open(&bytes, Verify::Full).map_err(|e| anyhow!("{}: {e}", input.display()))?;
     let mut fb = settings.buffers();
-    let r = render_tg_frame(&grid, settings, &mut fb)?;
+    let r =
+        render_tg_frame(&grid, settings, &mut fb).with_context(|| input.display().to_string())?;
     write_frame(out, &mut fb, settings.color_by_level)?;
     let s = r.stats;
     Ok(json!({

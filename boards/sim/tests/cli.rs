@@ -316,7 +316,8 @@ fn render_stream_gives_the_resident_frame_or_a_clear_error_and_no_output() {
         std::fs::read(dir.path().join("streamed.png")).unwrap(),
         "the converged stream is the resident frame"
     );
-    // A cache too small for the view never converges: an error naming the file, nothing written.
+    // A cache too small for the file would never converge: refused at open (issue 33), naming
+    // the file and the cache it needs, nothing written; through that cache it converges.
     let small = pocketsplat(
         &[
             &[
@@ -338,10 +339,38 @@ fn render_stream_gives_the_resident_frame_or_a_clear_error_and_no_output() {
     assert!(!small.status.success());
     let err = String::from_utf8_lossy(&small.stderr);
     assert!(
-        err.contains("oct.tg") && err.contains("did not converge"),
+        err.contains("oct.tg") && err.contains("--cache 4K is too small"),
         "{err}"
     );
     assert!(!dir.path().join("small.png").exists());
+    let need = err.split("needs --cache ").nth(1).unwrap();
+    let need = need.split_whitespace().next().unwrap();
+    let enough = pocketsplat(
+        &[
+            &[
+                "render",
+                "oct.tg",
+                "-o",
+                "small.png",
+                "--stream",
+                "--cache",
+                need,
+            ],
+            &view[..],
+        ]
+        .concat(),
+        dir.path(),
+    );
+    assert!(
+        enough.status.success(),
+        "{}",
+        String::from_utf8_lossy(&enough.stderr)
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("plain.png")).unwrap(),
+        std::fs::read(dir.path().join("small.png")).unwrap(),
+        "--cache {need} converges to the resident frame"
+    );
 }
 
 #[test]

@@ -481,3 +481,91 @@ fn streamed_hostile_files_fail_cleanly_and_write_no_png() {
     succeeds(d, &["render", "clean.tg", "--stream", "-o", "out.png"]);
     assert!(d.join("out.png").exists());
 }
+
+/// `file` with the precise (`f64`) root cube and bounds extension (header flag bit 2) holding its
+/// own `f32` cube and bounds times `scale`, sealed again.
+fn with_precise_cube(file: &[u8], scale: f64) -> Vec<u8> {
+    use pocketsplat_core::tg::{DIRECTORY_ENTRY, DIRECTORY_OFFSET, FLAG_PRECISE};
+    let mut f = file.to_vec();
+    let f32_at =
+        |f: &[u8], at: usize| f64::from(f32::from_le_bytes(f[at..at + 4].try_into().unwrap()));
+    let t = u32::from_le_bytes(f[36..40].try_into().unwrap()) as usize;
+    let at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * (usize::from(f[9]) + 1) + 4 * t;
+    let flags = u16::from_le_bytes([f[6], f[7]]) | FLAG_PRECISE;
+    f[6..8].copy_from_slice(&flags.to_le_bytes());
+    // Corner, side, then the bounding box.
+    let values: Vec<f64> = (0..4)
+        .map(|k| f32_at(&f, 16 + 4 * k))
+        .chain((0..6).map(|k| f32_at(&f, 48 + 4 * k)))
+        .collect();
+    for (k, v) in values.iter().enumerate() {
+        f[at + 8 * k..at + 8 * k + 8].copy_from_slice(&(v * scale).to_le_bytes());
+    }
+    pocketsplat_core::tg::write::seal(&mut f);
+    f
+}
+
+/// The precise root cube is held to what rendering draws (issue 33): a side near 1e−300 drew an
+/// empty frame with exit 0, one near 1e300 passed `info` and `migrate` and failed `render` with a
+/// camera error. Outside the f32 cube's range (2^±1000, a side below 2^−149, the smallest f32) every command refuses
+/// the file by name; inside it (2^±100) the file renders, and not an empty frame.
+#[test]
+fn the_precise_root_cube_is_held_to_what_rendering_draws() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    succeeds(d, &["bake", "oct.ply", "-o", "oct.tg", "--depth", "3"]);
+    let tg = std::fs::read(d.join("oct.tg")).unwrap();
+    // Powers of two: the scaled numbers keep their order exactly.
+    let two = |e: i32| 2f64.powi(e);
+    for (name, scale) in [
+        ("tiny.tg", two(-1000)),
+        ("huge.tg", two(1000)),
+        ("sub.tg", two(-153)),
+    ] {
+        std::fs::write(d.join(name), with_precise_cube(&tg, scale)).unwrap();
+        let needles = [name, "precise root cube", "outside what rendering draws"];
+        for args in [
+            vec!["info", name],
+            vec!["migrate", name, "-o", "m.tg"],
+            vec!["render", name, "-o", "out.png"],
+            vec!["render", name, "-o", "out.png", "--stream"],
+            vec!["view", name, "--frames", "1"],
+        ] {
+            fails(d, &args, &needles);
+        }
+    }
+    for (name, scale) in [("small.tg", two(-100)), ("large.tg", two(100))] {
+        std::fs::write(d.join(name), with_precise_cube(&tg, scale)).unwrap();
+        succeeds(d, &["info", name]);
+        succeeds(d, &["render", name, "-o", "out.png", "--stats-json"]);
+        let out = pocketsplat(&["render", name, "-o", "out.png", "--stats-json"], d);
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(stats["splats"].as_u64().unwrap() > 100, "{name}: {stats}");
+    }
+}
+
+/// Every error names the file it is about (issue 33): a ρ = 4 file, which the renderer does not
+/// draw ("rendering supports rho 2 and 3, not 4" named none), resident and streamed, and an
+/// argument the command refuses while reading a file.
+#[test]
+fn errors_name_the_file_they_are_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("oct.ply"), ply(&OCTAHEDRON_V, &OCTAHEDRON_F)).unwrap();
+    succeeds(
+        d,
+        &[
+            "bake", "oct.ply", "-o", "r4.tg", "--rho", "4", "--depth", "2",
+        ],
+    );
+    succeeds(d, &["info", "r4.tg"]);
+    for args in [
+        vec!["render", "r4.tg", "-o", "out.png"],
+        vec!["render", "r4.tg", "-o", "out.png", "--stream"],
+        vec!["render", "r4.tg", "-o", "out.png", "--view", "0,0,0"],
+    ] {
+        let err = fails(d, &args, &["r4.tg"]);
+        assert!(err.starts_with("error: r4.tg: "), "{err}");
+    }
+}

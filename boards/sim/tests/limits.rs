@@ -478,3 +478,47 @@ fn a_streamed_header_claiming_terabytes_is_refused() {
         &["oct.tg", "stream=64K"],
     );
 }
+
+/// Memory sized by a file is asked for, not assumed (issue 33): with the `file` limit raised past
+/// what the process may allocate (here a 1.5 GB address-space cap, `ulimit -v`), a 3 GB `.tg` read
+/// whole ends in an error naming the file and the bytes, not in "memory allocation of N bytes
+/// failed" and an abort. So does `migrate` of a file whose rewrite is estimated over `bake`.
+#[test]
+fn memory_a_file_asks_for_is_an_error_when_not_to_be_had() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A sparse file: 3 GB on paper, no disk; `PSTG` makes it a tri-grid to every reader.
+    let mut f = std::fs::File::create(d.join("big.tg")).unwrap();
+    f.write_all(b"PSTG").unwrap();
+    f.set_len(3 << 30).unwrap();
+    drop(f);
+    let bin = env!("CARGO_BIN_EXE_pocketsplat");
+    for args in [
+        "render big.tg -o out.png --limits file=8G",
+        "info big.tg --limits file=8G",
+    ] {
+        let mut c = Command::new("sh");
+        c.arg("-c")
+            .arg(format!("ulimit -v 1500000 && exec {bin} {args}"))
+            .current_dir(d)
+            .env("RUST_BACKTRACE", "1");
+        let a: Vec<&str> = args.split(' ').collect();
+        common::fails_with(
+            &mut c,
+            d,
+            &a,
+            &["cannot read big.tg", "bytes of memory are not to be had"],
+        );
+    }
+    // migrate: the rewrite's memory is estimated first, against `bake`.
+    std::fs::write(d.join("oct.ply"), OCTAHEDRON).unwrap();
+    common::succeeds_with(
+        &mut pocketsplat(&["bake", "oct.ply", "-o", "oct.tg", "--depth", "4"], d),
+        &[],
+    );
+    fails(
+        d,
+        &["migrate", "oct.tg", "-o", "m.tg", "--limits", "bake=4K"],
+        &["cannot migrate oct.tg", "--limits bake=SIZE"],
+    );
+}

@@ -295,10 +295,17 @@ fn precise_cube(
         side = side.next_up();
     }
     // A cube the reader takes: its corner at most 2³² sides from 0 (a mesh tinier than that
-    // against its distance from the origin keeps the f32 cube, grown to satisfy the same rule).
-    if origin
-        .iter()
-        .any(|o| o.abs() > crate::tg::read::MAX_CORNER_SIDES * side)
+    // against its distance from the origin keeps the f32 cube, grown to satisfy the same rule),
+    // and its numbers within the f32 range the renderer draws.
+    use crate::tg::read::{MAX_CORNER_SIDES, PRECISE_MAX, PRECISE_MIN_SIDE};
+    if origin.iter().any(|o| o.abs() > MAX_CORNER_SIDES * side)
+        || side < PRECISE_MIN_SIDE
+        || origin
+            .iter()
+            .chain(&lo)
+            .chain(&hi)
+            .chain([&side])
+            .any(|v| v.abs() > PRECISE_MAX)
     {
         return None;
     }

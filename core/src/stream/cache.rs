@@ -19,6 +19,19 @@ pub(crate) const BRICK_BAD: u8 = 2;
 /// Fewest blocks a cache may hold: the coarse levels plus room to refine.
 pub const MIN_SLOTS: usize = 4;
 
+/// What a load may evict ([`BlockCache::victim`]); free slots are taken first in every case.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Evict {
+    /// A block a frame drawn whole asked for: a block this frame did not use, or one of a strictly
+    /// finer class (coarse levels first).
+    Demand,
+    /// A prefetch: only a block this frame did not use, of a strictly finer class.
+    Prefetch,
+    /// A block a pass asked for: only a block this pass did not keep (those it keeps are the ones
+    /// the next pass needs to reach where this one stopped, and what this serve loads).
+    Pass,
+}
+
 /// What the stream knows of one block of the file (16 bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BlockEntry {
@@ -168,9 +181,9 @@ impl<'a> BlockCache<'a> {
         self.data.get(start..start.checked_add(n)?)
     }
 
-    /// The slot to load a block of class `class` into during frame `frame`, evicting per the policy;
-    /// `prefetch` loads may only take a free slot or an unused block of a strictly finer class.
-    pub(crate) fn victim(&self, class: u8, frame: u32, prefetch: bool) -> Option<usize> {
+    /// The slot to load a block of class `class` into during frame `frame`, evicting per the policy
+    /// and what the load is for ([`Evict`]).
+    pub(crate) fn victim(&self, class: u8, frame: u32, mode: Evict) -> Option<usize> {
         let mut best: Option<(usize, (bool, u8, u32))> = None;
         for (s, e) in self.slots.iter().enumerate() {
             let Some(b) = self.blocks.get(e.block as usize) else {
@@ -180,10 +193,10 @@ impl<'a> BlockCache<'a> {
                 continue;
             }
             let used_now = e.used == frame;
-            let allowed = if prefetch {
-                !used_now && b.class > class
-            } else {
-                !used_now || b.class > class
+            let allowed = match mode {
+                Evict::Demand => !used_now || b.class > class,
+                Evict::Prefetch => !used_now && b.class > class,
+                Evict::Pass => !used_now,
             };
             if !allowed {
                 continue;
@@ -267,7 +280,7 @@ mod tests {
             [BlockEntry::EMPTY; 8],
         );
         let mut c = cache(&mut d, &mut s, &mut b, &[0, 1, 2, 3, 3, 4, 4, 5]);
-        assert_eq!(c.victim(3, 1, false), Some(0));
+        assert_eq!(c.victim(3, 1, Evict::Demand), Some(0));
         // Slots: block 1 (class 1) used at 5, block 3 (class 3) at 2, block 4 (class 3) at 1, block 5
         // (class 4) at frame 6 = now.
         for (slot, (blk, used)) in [(1, 5), (3, 2), (4, 1), (5, 6)].into_iter().enumerate() {
@@ -275,19 +288,19 @@ mod tests {
         }
         // Unused this frame first: block 1 (class 1) vs blocks 3 and 4 (class 3): the finest, then
         // the oldest, so block 4 in slot 2.
-        assert_eq!(c.victim(2, 6, false), Some(2));
+        assert_eq!(c.victim(2, 6, Evict::Demand), Some(2));
         // With classes up to 3 pinned, only block 5 (class 4, used now) is left: evicted for a
         // strictly coarser demand, not for a prefetch nor for an equal class.
         c.pinned = 3;
-        assert_eq!(c.victim(2, 6, false), Some(3));
-        assert_eq!(c.victim(4, 6, false), None);
-        assert_eq!(c.victim(2, 6, true), None);
+        assert_eq!(c.victim(2, 6, Evict::Demand), Some(3));
+        assert_eq!(c.victim(4, 6, Evict::Demand), None);
+        assert_eq!(c.victim(2, 6, Evict::Prefetch), None);
         // Next frame block 5 is unused: a prefetch of a coarser class may take it.
-        assert_eq!(c.victim(2, 7, true), Some(3));
-        assert_eq!(c.victim(4, 7, true), None);
+        assert_eq!(c.victim(2, 7, Evict::Prefetch), Some(3));
+        assert_eq!(c.victim(4, 7, Evict::Prefetch), None);
         assert!(c.evict(3));
         assert!(!c.contains(5));
-        assert_eq!(c.victim(4, 7, true), Some(3));
+        assert_eq!(c.victim(4, 7, Evict::Prefetch), Some(3));
     }
 
     #[test]

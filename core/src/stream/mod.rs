@@ -36,6 +36,7 @@
 #![deny(clippy::float_arithmetic)]
 
 mod cache;
+mod need;
 mod nodes;
 mod open;
 mod priority;
@@ -149,12 +150,15 @@ pub enum StreamError<E> {
         /// Entries given.
         capacity: u32,
     },
-    /// The cache memory holds fewer than [`cache::MIN_SLOTS`] blocks of this file.
+    /// The cache memory holds fewer blocks of this file than a pass needs at once (at least
+    /// [`cache::MIN_SLOTS`]; [`TgStream::cache_need`]): a stream through it would never converge.
     CacheTooSmall {
         /// The file's block size, bytes.
         block_size: u32,
         /// Blocks the cache memory holds.
         slots: u32,
+        /// Blocks this file needs.
+        needed: u32,
     },
 }
 
@@ -167,10 +171,15 @@ impl<E: core::fmt::Debug> core::fmt::Display for StreamError<E> {
                 f,
                 "the file has {blocks} blocks but the block table holds {capacity}"
             ),
-            StreamError::CacheTooSmall { block_size, slots } => write!(
+            StreamError::CacheTooSmall {
+                block_size,
+                slots,
+                needed,
+            } => write!(
                 f,
-                "the cache holds {slots} blocks of {block_size} bytes; it needs at least {}",
-                cache::MIN_SLOTS
+                "a cache of {slots} blocks of {block_size} bytes is too small for this file: \
+                 streaming it needs {needed} blocks ({} KB) at once",
+                (u64::from(*needed) * u64::from(*block_size)).div_ceil(1024)
             ),
         }
     }

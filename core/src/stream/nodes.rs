@@ -144,10 +144,25 @@ pub(crate) enum Entered {
 /// masks of its cells (to check it the first time).
 pub(crate) type Ranges = [(u64, u64); 6];
 
-/// Blocks one descent may need at most: what [`Ranges`] spans. A brick larger than this can never
-/// be checked, so a descent into it is refused (a writer's bricks span one block, a cell larger
-/// than a block a few).
-const MAX_DESCENT_BLOCKS: usize = 16;
+/// Every block of `ranges` (blocks of `2^log2` bytes), once each in order: all of them, however
+/// many (a descent into a brick larger than the cache can hold is then missing blocks, never
+/// dropped; `need.rs` refuses such a cache at open).
+fn each_block(log2: u8, ranges: &Ranges, mut f: impl FnMut(usize)) {
+    let mut prev = usize::MAX;
+    for &(off, len) in ranges {
+        if len == 0 {
+            continue;
+        }
+        let (a, z) = (off >> log2, off.saturating_add(len - 1) >> log2);
+        for b in a..=z {
+            let b = usize::try_from(b).unwrap_or(usize::MAX);
+            if b != prev {
+                f(b);
+                prev = b;
+            }
+        }
+    }
+}
 
 /// The traversal's view of a stream: reads through the cache, asks for what is missing.
 pub(crate) struct StreamNodes<'s, 'a, 'p> {
@@ -222,39 +237,10 @@ impl StreamNodes<'_, '_, '_> {
         r
     }
 
-    /// Every block of `ranges`, once each in order.
-    fn blocks(&self, ranges: &Ranges, mut f: impl FnMut(usize)) {
-        let log2 = self.cache.log2;
-        let mut prev = usize::MAX;
-        for &(off, len) in ranges {
-            if len == 0 {
-                continue;
-            }
-            let (a, z) = (off >> log2, off.saturating_add(len - 1) >> log2);
-            for b in a..=z.min(a + MAX_DESCENT_BLOCKS as u64) {
-                let b = b as usize;
-                if b != prev {
-                    f(b);
-                    prev = b;
-                }
-            }
-        }
-    }
-
     pub(crate) fn resident(&mut self, ranges: &Ranges) -> bool {
         let mut all = true;
-        let mut touch = [usize::MAX; MAX_DESCENT_BLOCKS];
-        let mut n = 0;
-        self.blocks(ranges, |b| {
-            if n < touch.len() {
-                touch[n] = b;
-                n += 1;
-            } else {
-                all = false;
-            }
-        });
         let stamp = self.pass.stamp;
-        for &b in &touch[..n] {
+        each_block(self.cache.log2, ranges, |b| {
             if self.pass.phase == Phase::Lookahead
                 && self.cache.used(b).is_some_and(|u| u != stamp)
                 && self.unpinned(b)
@@ -262,8 +248,27 @@ impl StreamNodes<'_, '_, '_> {
                 self.pass.kept += 1;
             }
             all &= self.cache.touch(b, stamp);
-        }
+        });
         all
+    }
+
+    /// Blocks of `ranges` a lookahead descent would add to what the pass keeps: unpinned resident
+    /// ones not kept yet, and absent ones not queued yet (it would queue them).
+    fn would_keep(&self, ranges: &Ranges) -> u32 {
+        let stamp = self.pass.stamp;
+        let mut n = 0u32;
+        each_block(self.cache.log2, ranges, |b| {
+            let add = match self.cache.used(b) {
+                Some(u) => u != stamp && self.unpinned(b),
+                None => self
+                    .cache
+                    .blocks
+                    .get(b)
+                    .is_some_and(|e| e.queued == NOT_QUEUED),
+            };
+            n += u32::from(add);
+        });
+        n
     }
 
     /// Whether block `b` may be evicted (its class is not pinned).
@@ -287,35 +292,42 @@ impl StreamNodes<'_, '_, '_> {
         self.pass.phase = Phase::Lookahead;
         self.pass.drawing.set(false);
         self.pass.stamp = self.frame;
+        // The root's own blocks, then the descents down to the stop.
+        let root = self.ranges(0, 0, 1, None);
+        self.resident(&root);
         for k in 0..l {
             let (i, first, n) = self.pass.stack[k];
             let r = self.ranges(k as u8 + 1, first, n, Some(i));
             self.resident(&r);
         }
         if let Some(Bricks {
-            level: r,
-            entered: Entered::Brick(_, table),
-            ..
+            level: r, entered, ..
         }) = self.bricks
         {
-            if level > r {
-                let mut keep = [(0, 0); 6];
-                keep[0] = ((table as u64) << self.cache.log2, 1);
-                self.resident(&keep);
+            if level >= r {
+                // The next pass looks up the brick of the stop's cell at the brick level afresh,
+                // through the same blocks of the table (`need.rs` counts them): keep them.
+                let cell = if level == r {
+                    index
+                } else {
+                    self.pass.stack[usize::from(r)].0
+                };
+                self.set_entered(Entered::None);
+                let _ = self.find_brick(cell);
+                self.set_entered(entered);
             }
         }
     }
 
+    /// Sets the brick the walk entered last (what [`StreamNodes::find_brick`] guesses from).
+    fn set_entered(&mut self, entered: Entered) {
+        if let Some(bk) = self.bricks.as_mut() {
+            bk.entered = entered;
+        }
+    }
+
     pub(crate) fn request(&mut self, ranges: &Ranges, priority: u32) {
-        let mut want = [usize::MAX; MAX_DESCENT_BLOCKS];
-        let mut n = 0;
-        self.blocks(ranges, |b| {
-            if n < want.len() {
-                want[n] = b;
-                n += 1;
-            }
-        });
-        for &b in &want[..n] {
+        each_block(self.cache.log2, ranges, |b| {
             // A pass reads in file order (what an SD card serves best), its stop first.
             let p = match self.pass.phase {
                 Phase::Lookahead if priority != ROOT_PRIORITY => {
@@ -326,7 +338,7 @@ impl StreamNodes<'_, '_, '_> {
             if self.push(b, p) && self.pass.phase == Phase::Lookahead {
                 self.pass.kept += 1;
             }
-        }
+        });
         if self.pass.phase == Phase::Lookahead && self.pass.kept >= self.pass.room {
             self.pass.phase = Phase::Done;
         }
@@ -391,7 +403,14 @@ impl StreamNodes<'_, '_, '_> {
         let entry = crate::tg::brick::entry_bytes(h.brick_level, h.depth) as u64;
         let off = u64::from(h.brick_table) + u64::from(b) * entry + 4 * k as u64;
         let block = (off >> self.cache.log2) as usize;
-        if !self.cache.touch(block, self.pass.stamp) {
+        let stamp = self.pass.stamp;
+        if self.pass.phase == Phase::Lookahead
+            && self.cache.used(block).is_some_and(|u| u != stamp)
+            && self.unpinned(block)
+        {
+            self.pass.kept += 1;
+        }
+        if !self.cache.touch(block, stamp) {
             return Err(block);
         }
         Ok(u32::from_le_bytes(self.read(off)))
@@ -630,6 +649,14 @@ impl NodeData for StreamNodes<'_, '_, '_> {
                     return false;
                 }
             }
+        }
+        if self.pass.phase == Phase::Lookahead
+            && self.pass.kept + self.would_keep(&r) > self.pass.room
+        {
+            // The lookahead keeps no more than leaves the next pass room for what it stopped at:
+            // a descent that would take more ends it (and queues nothing).
+            self.pass.phase = Phase::Done;
+            return false;
         }
         self.need = r;
         if !self.resident(&r) {

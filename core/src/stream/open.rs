@@ -5,7 +5,7 @@
 use super::cache::BlockCache;
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
-use crate::tg::brick::{check_head, check_table};
+use crate::tg::brick::{check_head, check_table, BrickSpans};
 use crate::tg::read::{check_counts, parse_header, Header, LevelDir};
 use crate::tg::{TgError, MAX_LEVELS, VERSION_BRICKS};
 
@@ -68,6 +68,7 @@ fn try_header<C: ChunkSource + ?Sized>(
     let too_small = |bs: usize| StreamError::CacheTooSmall {
         block_size: bs as u32,
         slots: 0,
+        needed: 1,
     };
     let first = scratch.get_mut(..MIN_BLOCK).ok_or(too_small(MIN_BLOCK))?;
     src.read_at(0, first).map_err(StreamError::Device)?;
@@ -87,12 +88,14 @@ fn try_header<C: ChunkSource + ?Sized>(
     parse_header(block).map_err(StreamError::Format)
 }
 
-/// What opening read: reads issued and the medium's and the CRC's failures.
+/// What opening read: reads issued and the medium's and the CRC's failures; and what the largest
+/// bricks span (from the brick table, for the cache the file needs).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct OpenReads {
     pub reads: u32,
     pub read_errors: u32,
     pub crc_errors: u32,
+    pub spans: BrickSpans,
 }
 
 /// Reads words of the file through the cache's slots, each block checked by its CRC (retried
@@ -181,14 +184,14 @@ pub(crate) fn check_head_and_table<C: ChunkSource + ?Sized>(
         if h.bricked() {
             check_table(h, levels, &mut read)
         } else {
-            Ok(())
+            Ok(BrickSpans::default())
         }
     });
     for s in r.cache.slots.iter_mut() {
         s.used = 0;
     }
     match (result, r.failed) {
-        (Ok(()), _) => Ok(r.reads),
+        (Ok(spans), _) => Ok(OpenReads { spans, ..r.reads }),
         (Err(_), Some(e)) => Err(e),
         (Err(e), None) => Err(StreamError::Format(e)),
     }

@@ -5,7 +5,8 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BlockEntry, SlotEntry, NOT_QUEUED, NO_SLOT};
+use super::cache::{BlockCache, BlockEntry, Evict, SlotEntry, MIN_SLOTS, NOT_QUEUED, NO_SLOT};
+use super::need::{LevelEnds, Need};
 use super::nodes::{Bricks, Entered, Level, PassState, Phase, Refine, Request, StreamNodes};
 use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
 use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
@@ -66,6 +67,11 @@ pub struct ServeReport {
     pub failed: u32,
     /// Reads that were prefetches.
     pub prefetched: u32,
+    /// Blocks not read because the cache had no slot the eviction policy may give (every one
+    /// pinned or kept): of a frame drawn whole, any it asked for (when nothing else was read, the
+    /// next frame is this one again: draw it in passes); of a pass, those where it stopped (the
+    /// next pass would stop there again: the cache is too small for this view).
+    pub no_room: u32,
 }
 
 /// A `.tg` file being streamed: header, level directory, block cache and request queue.
@@ -87,6 +93,8 @@ pub struct TgStream<'a> {
     counters: StreamCounters,
     /// Blocks of the pinned (never evicted) coarse levels.
     pinned_blocks: u32,
+    /// The fewest blocks a cache of this file may hold ([`TgStream::cache_need`]).
+    need_blocks: u32,
     /// The refined frame being drawn in passes ([`TgStream::render_pass`]).
     refine: Refine,
     /// Whether the last frame was a pass: [`TgStream::serve`] then reads in block order.
@@ -164,6 +172,7 @@ impl<'a> TgStream<'a> {
             StreamError::CacheTooSmall {
                 block_size: bs as u32,
                 slots: slots_avail,
+                needed: MIN_SLOTS as u32,
             },
         )?;
         let levels = dirs.map(|d| Level::of(&d));
@@ -179,13 +188,13 @@ impl<'a> TgStream<'a> {
             frame: 0,
             counters: StreamCounters::default(),
             pinned_blocks: 0,
+            need_blocks: MIN_SLOTS as u32,
             refine: Refine::START,
             passing: false,
         };
         s.counters.reads = header_fails + 1;
         s.counters.bytes_read = (u64::from(header_fails) + 1) * bs as u64;
         s.load_crc_table(src)?;
-        s.classify(&dirs);
         // The head and the brick table, checked whole before the first frame (the bricks are
         // checked one by one as the walk first enters them).
         let reads = check_head_and_table(&header, &dirs, &mut s.cache, src)?;
@@ -193,6 +202,25 @@ impl<'a> TgStream<'a> {
         s.counters.bytes_read += u64::from(reads.reads) * bs as u64;
         s.counters.read_errors += reads.read_errors;
         s.counters.crc_errors += reads.crc_errors;
+        // A cache that cannot hold what one pass needs would never converge: refused here, with
+        // the size this file needs (issue 33).
+        let level_end = s.level_ends(&dirs);
+        let need = Need {
+            header: &header,
+            dirs: &dirs,
+            spans: reads.spans,
+            level_end: &level_end,
+        };
+        s.need_blocks = need.min_cache_blocks();
+        let capacity = s.cache.capacity() as u32;
+        let Some(pinned) = need.pinning(capacity) else {
+            return Err(StreamError::CacheTooSmall {
+                block_size: bs as u32,
+                slots: capacity,
+                needed: s.need_blocks,
+            });
+        };
+        s.classify(&level_end, pinned, need.pinned_blocks(pinned));
         Ok(s)
     }
 
@@ -248,12 +276,10 @@ impl<'a> TgStream<'a> {
         Ok(())
     }
 
-    /// Gives each data block its class (the coarsest level with data in it), and pins the coarsest
-    /// levels that fit in half the cache. In a bricked file the brick table counts as the brick
-    /// level's (every descent below it reads the table), the bricks as the level below.
-    fn classify(&mut self, dirs: &[LevelDir; MAX_LEVELS]) {
+    /// Per level, the end of its data (for a bricked file the brick table counts as the brick
+    /// level's, since every descent below it reads the table, and the bricks as the level below).
+    fn level_ends(&self, dirs: &[LevelDir; MAX_LEVELS]) -> LevelEnds {
         let h = self.header;
-        let log2 = h.block_log2;
         let mb = u64::from(h.mask_bytes());
         let mut level_end = [0u64; MAX_LEVELS];
         for (l, d) in dirs.iter().enumerate().take(h.levels()) {
@@ -284,6 +310,14 @@ impl<'a> TgStream<'a> {
                 *end = band;
             }
         }
+        level_end
+    }
+
+    /// Gives each data block its class (the coarsest level with data in it), and pins the levels
+    /// `0..=pinned` (their `pinned_blocks` blocks are never evicted; [`Need::pinning`] chose them).
+    fn classify(&mut self, level_end: &LevelEnds, pinned: i16, pinned_blocks: u32) {
+        let h = self.header;
+        let log2 = h.block_log2;
         let first_data = h.crc_table_blocks as usize + 1;
         for (b, e) in self.cache.blocks.iter_mut().enumerate().skip(first_data) {
             let start = (b as u64) << log2;
@@ -291,18 +325,14 @@ impl<'a> TgStream<'a> {
                 .find(|&l| level_end[l] > start)
                 .unwrap_or(usize::from(h.depth)) as u8;
         }
-        // Pin levels 0..=p while the blocks up to the end of level p fill at most half the cache.
-        let half = self.cache.capacity() / 2;
-        self.cache.pinned = -1;
-        for (l, &end) in level_end.iter().enumerate().take(h.levels()) {
-            let last = end.saturating_sub(1) >> log2;
-            let count = (last + 1).saturating_sub(first_data as u64);
-            if count as usize > half {
-                break;
-            }
-            self.cache.pinned = l as i16;
-            self.pinned_blocks = count as u32;
-        }
+        self.cache.pinned = pinned;
+        self.pinned_blocks = pinned_blocks;
+    }
+
+    /// The fewest blocks a cache of this file may hold (`need.rs`): smaller caches are refused at
+    /// open ([`StreamError::CacheTooSmall`]); with this many, every view converges.
+    pub fn cache_need(&self) -> u32 {
+        self.need_blocks
     }
 
     /// The header.
@@ -394,17 +424,21 @@ impl<'a> TgStream<'a> {
         self.refine.passes
     }
 
-    /// Blocks the last frame (or pass) used that the eviction policy keeps for it, unpinned, plus
-    /// those it queued: more than the cache holds means the frame cannot be drawn whole from the
-    /// cache, and needs [`TgStream::render_pass`].
+    /// Blocks the last frame (or pass) used that the eviction policy keeps for it, plus the pinned
+    /// blocks (which it never evicts) and those it queued: more than the cache holds means the
+    /// frame cannot be drawn whole from the cache, and needs [`TgStream::render_pass`].
     pub fn working_set(&self) -> u32 {
-        let used = self
+        let kept = self
             .cache
             .slots
             .iter()
-            .filter(|e| e.used == self.frame && e.block != super::cache::NO_BLOCK)
+            .filter(|e| {
+                self.cache.blocks.get(e.block as usize).is_some_and(|b| {
+                    e.used == self.frame || i16::from(b.class) <= self.cache.pinned
+                })
+            })
             .count() as u32;
-        used + self.queue.len() as u32
+        kept + self.queue.len() as u32
     }
 
     fn walk<S: SplatSink, H: ShadowHooks>(
@@ -521,35 +555,45 @@ impl<'a> TgStream<'a> {
         let mut left = (budget_bytes as usize).max(bs);
         let mut report = ServeReport::default();
         if self.passing {
-            // A pass's queue, best first within the budget, then read in ascending block order:
-            // an SD card (or a disk) serves a forward sweep best.
-            let mut batch: Vec<u32, QUEUE_CAPACITY> = Vec::new();
+            // A pass's queue, best first within the budget: the blocks where the pass stopped
+            // first (what the next pass needs to go on), then the rest in ascending block order,
+            // as an SD card (or a disk) serves a forward sweep best. Nothing the pass kept is
+            // evicted for them.
+            let mut batch: Vec<(bool, u32), QUEUE_CAPACITY> = Vec::new();
             while left >= bs {
-                let Some(b) = self.pop_best() else { break };
-                if batch.push(b as u32).is_err() {
+                let Some((b, priority)) = self.pop_best() else {
+                    break;
+                };
+                if batch.push((priority != ROOT_PRIORITY, b as u32)).is_err() {
                     break;
                 }
                 left -= bs;
             }
             batch.sort_unstable();
-            for &b in &batch {
-                self.load(src, b as usize, false, &mut report);
+            for &(later, b) in &batch {
+                if self
+                    .load(src, b as usize, Evict::Pass, &mut report)
+                    .is_none()
+                    && !later
+                {
+                    report.no_room += 1;
+                }
             }
             return report;
         }
         while left >= bs {
-            let (b, prefetch) = match self.pop_best() {
-                Some(b) => (b, false),
+            let (b, mode) = match self.pop_best() {
+                Some((b, _)) => (b, Evict::Demand),
                 None if self.missing == 0 => match self.next_prefetch() {
-                    Some(b) => (b, true),
+                    Some(b) => (b, Evict::Prefetch),
                     None => break,
                 },
                 None => break,
             };
-            match self.load(src, b, prefetch, &mut report) {
+            match self.load(src, b, mode, &mut report) {
                 Some(()) => left -= bs,
-                None if prefetch => break,
-                None => {}
+                None if mode == Evict::Prefetch => break,
+                None => report.no_room += 1,
             }
         }
         report
@@ -561,12 +605,13 @@ impl<'a> TgStream<'a> {
         &mut self,
         src: &mut C,
         b: usize,
-        prefetch: bool,
+        mode: Evict,
         report: &mut ServeReport,
     ) -> Option<()> {
         let bs = self.header.block_size();
         let class = self.cache.blocks[b].class;
-        let s = self.cache.victim(class, self.frame, prefetch)?;
+        let prefetch = mode == Evict::Prefetch;
+        let s = self.cache.victim(class, self.frame, mode)?;
         if self.cache.evict(s) {
             self.counters.evictions += 1;
         }
@@ -611,8 +656,8 @@ impl<'a> TgStream<'a> {
         e.retry_at == 0 || self.frame >= e.retry_at
     }
 
-    /// Removes and returns the best queued block that may be read now.
-    fn pop_best(&mut self) -> Option<usize> {
+    /// Removes and returns the best queued block that may be read now, with its priority.
+    fn pop_best(&mut self) -> Option<(usize, u32)> {
         let mut best: Option<(usize, u32)> = None;
         for (i, r) in self.queue.iter().enumerate() {
             let e = &self.cache.blocks[r.block as usize];
@@ -626,7 +671,7 @@ impl<'a> TgStream<'a> {
         if let Some(moved) = self.queue.get(i) {
             self.cache.blocks[moved.block as usize].queued = i as u16;
         }
-        Some(r.block as usize)
+        Some((r.block as usize, r.priority))
     }
 
     /// The first absent data block in file order (coarse levels first) that may be read now.

@@ -277,11 +277,31 @@ pub fn check_head(
     Ok(())
 }
 
+/// What the largest bricks of a file span, from its brick table ([`check_table`]): what a streaming
+/// reader must hold at once to enter one (`crate::stream`, "the cache a file needs").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BrickSpans {
+    /// Blocks the largest brick spans.
+    pub brick: u32,
+    /// The most blocks checking one brick reads: its own and those of the head's masks of its cells
+    /// ([`check_brick`]).
+    pub checked: u32,
+}
+
+/// Blocks of `2^log2` bytes that bytes `off..off + len` touch (0 for none).
+pub fn blocks_spanned(off: u64, len: u64, log2: u8) -> u32 {
+    if len == 0 {
+        return 0;
+    }
+    let last = off.saturating_add(len - 1) >> log2;
+    u32::try_from(last - (off >> log2) + 1).unwrap_or(u32::MAX)
+}
+
 /// Checks the brick table of a bricked file, whose head [`check_head`] passed: every entry in order
 /// and in range ([`Brick::of`]), the first brick after the table, and each brick's first index at
 /// the level below the brick level equal to the children of the brick-level cells before it (the
 /// running count of the head's masks there), so that the bricks partition every level in the walk's
-/// order. `read` as for [`check_head`].
+/// order. `read` as for [`check_head`]. Returns what the largest bricks span.
 ///
 /// # Errors
 /// [`TgError::BadBrickEntry`] naming the first brick out of order (or [`TgError::TooShort`] when a
@@ -290,7 +310,7 @@ pub fn check_table(
     h: &Header,
     levels: &[LevelDir; MAX_LEVELS],
     read: &mut impl FnMut(u64, usize) -> Option<u128>,
-) -> Result<(), TgError> {
+) -> Result<BrickSpans, TgError> {
     let entry = entry_bytes(h.brick_level, h.depth);
     let table_end = u64::from(h.brick_table) + u64::from(h.bricks) * entry as u64;
     let band_end = band_end(h, levels);
@@ -306,6 +326,7 @@ pub fn check_table(
         BrickEntry::parse(h, &bytes).ok_or(TgError::BadBrickEntry { brick: b })
     };
     let (mut cell, mut children) = (0u32, 0u32);
+    let mut spans = BrickSpans::default();
     let mut e = entry_at(read, 0)?;
     for b in 0..h.bricks {
         let next = if b + 1 < h.bricks {
@@ -314,6 +335,14 @@ pub fn check_table(
             None
         };
         let brick = Brick::of(h, levels, b, &e, next.as_ref(), band_end)?;
+        let own = blocks_spanned(brick.start, brick.end - brick.start, h.block_log2).max(1);
+        let masks = blocks_spanned(
+            u64::from(levels[r].mask_off) + mb * u64::from(brick.first[r]),
+            mb * u64::from(brick.count[r]),
+            h.block_log2,
+        );
+        spans.brick = spans.brick.max(own);
+        spans.checked = spans.checked.max(own.saturating_add(masks));
         if b == 0 && brick.start < table_end {
             return Err(TgError::BadBrickEntry { brick: 0 });
         }
@@ -331,7 +360,7 @@ pub fn check_table(
             e = n;
         }
     }
-    Ok(())
+    Ok(spans)
 }
 
 /// Checks one brick, whose entry passed [`check_table`], as [`check_head`] checks the head, within

@@ -39,6 +39,14 @@ pub enum TgError {
         /// header.
         offset: u16,
     },
+    /// A number of the precise root cube or bounds is outside the magnitudes the renderer draws:
+    /// those of the `f32` cube, [`PRECISE_MIN_SIDE`](super::read::PRECISE_MIN_SIDE) to
+    /// [`PRECISE_MAX`](super::read::PRECISE_MAX) (a side near 1e−300 drew an empty frame, one near
+    /// 1e300 overflowed the camera).
+    PreciseOutOfRange {
+        /// Byte offset of the offending `f64` in the header.
+        offset: u16,
+    },
     /// A reserved header byte is not 0.
     ReservedNotZero {
         /// Its byte offset in the header.
@@ -147,6 +155,14 @@ impl core::fmt::Display for TgError {
                 f,
                 "header field at byte {offset} (precise root cube or bounds, f64): missing, not \
                  finite, no size, inverted, outside the cube or lost in its corner's rounding"
+            ),
+            TgError::PreciseOutOfRange { offset } => write!(
+                f,
+                "header field at byte {offset} (precise root cube or bounds, f64): outside what \
+                 rendering draws (the f32 cube's range: a side of at least {:e}, every number at \
+                 most {:e} in size)",
+                super::read::PRECISE_MIN_SIDE,
+                super::read::PRECISE_MAX
             ),
             TgError::ReservedNotZero { offset } => {
                 write!(f, "reserved header byte {offset} is not 0")

@@ -25,6 +25,12 @@ pub const ENTRY_HEAD: usize = 8;
 
 /// Largest `|corner coordinate| / side` of a root cube (2^32).
 pub const MAX_CORNER_SIDES: f64 = 4_294_967_296.0;
+/// Smallest side of the precise (`f64`) root cube: the smallest positive `f32`, the `f32` cube's
+/// own floor. The renderer's set-up squares and multiplies distances in `f64`; within the `f32`
+/// range they neither underflow nor overflow (a side near 1e−300 drew an empty frame).
+pub const PRECISE_MIN_SIDE: f64 = 1.401_298_464_324_817e-45;
+/// Largest magnitude of a number of the precise root cube or bounds: the largest `f32`.
+pub const PRECISE_MAX: f64 = 3.402_823_466_385_288_6e38;
 
 /// The fixed fields of a `.tg` header.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -339,6 +345,16 @@ fn read_precise(block: &[u8], at: usize, header: &mut Header) -> Result<(), TgEr
     let side = v[3];
     if side <= 0.0 {
         return Err(bad(3));
+    }
+    // What rendering draws: the magnitudes of the f32 cube (issue 33).
+    let out = |k: usize| TgError::PreciseOutOfRange {
+        offset: at.saturating_add(8 * k).min(usize::from(u16::MAX)) as u16,
+    };
+    if side < PRECISE_MIN_SIDE {
+        return Err(out(3));
+    }
+    if let Some(k) = (0..10).find(|&k| libm::fabs(v[k]) > PRECISE_MAX) {
+        return Err(out(k));
     }
     if let Some(a) = (0..3).find(|&a| libm::fabs(origin[a]) > MAX_CORNER_SIDES * side) {
         return Err(bad(a));

@@ -2,7 +2,10 @@
 //! that is validated once by [`TriGrid::open`] and whose accessors cannot panic afterwards.
 
 use super::brick::{self, Array, Brick, BrickEntry};
-pub use super::header::{check_counts, parse_header, Header, LevelDir, TgError, MAX_CORNER_SIDES};
+pub use super::header::{
+    check_counts, parse_header, Header, LevelDir, TgError, MAX_CORNER_SIDES, PRECISE_MAX,
+    PRECISE_MIN_SIDE,
+};
 pub(crate) use super::header::{mask_word_ok, slot_bits};
 use super::{CONE_SHIFT, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
 use crate::bytes::le::{u16_at, u32_at};

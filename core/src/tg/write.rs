@@ -27,7 +27,23 @@ pub enum WriteError {
     },
     /// A brick level with fewer than two levels below it.
     BrickLevel(u8),
+    /// Bricks below this level would span more than [`MAX_BRICK_BLOCKS`] blocks: a stream
+    /// enters a brick whole, so its cache would have to hold them all.
+    BrickTooLarge {
+        /// The brick level asked for.
+        level: u8,
+        /// Blocks its largest brick would span.
+        blocks: u32,
+        /// The shallowest level whose bricks fit.
+        fits: u8,
+    },
 }
+
+/// Most blocks a brick the writer makes may span (one cell's subtree larger than a block makes a
+/// brick of several): a stream checks a brick whole when it first enters it, so its cache must
+/// hold the largest brick with the path above it. With 4 the default bakes stream through a 64 KB
+/// cache of 4 KB blocks (`pocketsplat info` gives what a file needs).
+pub const MAX_BRICK_BLOCKS: u32 = 4;
 
 impl core::fmt::Display for WriteError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -37,6 +53,16 @@ impl core::fmt::Display for WriteError {
                 f,
                 "bricks below level {r} need at least two levels below it (depth {} or more)",
                 u16::from(*r) + 2
+            ),
+            WriteError::BrickTooLarge {
+                level,
+                blocks,
+                fits,
+            } => write!(
+                f,
+                "bricks below level {level} would span up to {blocks} blocks, and a stream must \
+                 hold a whole brick in its cache (at most {MAX_BRICK_BLOCKS} are written): brick \
+                 below level {fits} or deeper"
             ),
             WriteError::TooLarge { blocks } => {
                 write!(
@@ -255,9 +281,35 @@ fn write_with_cones(
         brick_table: 0,
     };
     let bricks = match r {
-        Some(r) => pack_bricks(grid, &header, r),
+        Some(r) => {
+            // The shallowest level from the one chosen whose bricks fit: the writer's own choice
+            // goes deeper, a level asked for is refused, naming the one that fits.
+            let (mut fits, mut asked) = (None, 0);
+            for level in r..=depth as u8 - 2 {
+                header.brick_level = level;
+                let (bricks, blocks) = pack_bricks(grid, &header, level);
+                if level == r {
+                    asked = blocks;
+                }
+                if blocks <= MAX_BRICK_BLOCKS {
+                    fits = Some((level, bricks));
+                    break;
+                }
+            }
+            let (level, bricks) =
+                fits.expect("bricks below depth - 2 hold one cell's children: a block at most");
+            if level != r && layout != Layout::Bricked {
+                return Err(WriteError::BrickTooLarge {
+                    level: r,
+                    blocks: asked,
+                    fits: level,
+                });
+            }
+            bricks
+        }
         None => Vec::new(),
     };
+    let r = r.map(|_| header.brick_level);
     header.bricks = bricks.len() as u32;
     // T table blocks cover 4T·bs/4 = T·bs/4 blocks; grow T until the file fits.
     let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * levels;
@@ -434,8 +486,9 @@ fn header_dirs(h: &Header, grid: &BakedGrid, plan: &Plan) -> [LevelDir; MAX_LEVE
 
 /// Cuts the levels below `r` into bricks: runs of consecutive level-`r` cells, each as many as fit
 /// in one block (a cell whose subtree is larger than a block alone), each brick starting on a block
-/// (FORMAT.md "Bricks"). Returns their entries, block numbers counted from the first brick's.
-fn pack_bricks(grid: &BakedGrid, header: &Header, r: u8) -> Vec<BrickEntry> {
+/// (FORMAT.md "Bricks"). Returns their entries, block numbers counted from the first brick's, and
+/// the most blocks one spans.
+fn pack_bricks(grid: &BakedGrid, header: &Header, r: u8) -> (Vec<BrickEntry>, u32) {
     let depth = grid.levels.len() - 1;
     let ru = usize::from(r);
     // first[l][i]: the first child (at l + 1) of cell i at l, for i in 0..=count (the last: count
@@ -470,7 +523,7 @@ fn pack_bricks(grid: &BakedGrid, header: &Header, r: u8) -> Vec<BrickEntry> {
         brick::lay_out(header, &count, |_, _, _| {})
     };
     let mut bricks = Vec::new();
-    let mut block = 0u32;
+    let (mut block, mut largest) = (0u32, 0u32);
     let mut a = below(0);
     while a[ru] < cells {
         let mut b = below(a[ru] + 1);
@@ -488,10 +541,12 @@ fn pack_bricks(grid: &BakedGrid, header: &Header, r: u8) -> Vec<BrickEntry> {
         };
         e.first[ru + 1..=depth].copy_from_slice(&a[ru + 1..=depth]);
         bricks.push(e);
-        block += size(&a, &b).div_ceil(bs).max(1) as u32;
+        let blocks = size(&a, &b).div_ceil(bs).max(1) as u32;
+        largest = largest.max(blocks);
+        block += blocks;
         a = b;
     }
-    bricks
+    (bricks, largest)
 }
 
 /// Places the arrays from `data_start`: the level-ordered head (every level when there are no

@@ -46,6 +46,13 @@ pub struct BakeArgs {
     force: bool,
 }
 
+impl BakeArgs {
+    /// The file the command reads (what its errors name).
+    pub fn input(&self) -> &std::path::Path {
+        &self.mesh
+    }
+}
+
 /// The `bake` command.
 ///
 /// # Errors

@@ -14,6 +14,13 @@ pub struct InfoArgs {
     json: bool,
 }
 
+impl InfoArgs {
+    /// The file the command reads (what its errors name).
+    pub fn input(&self) -> &std::path::Path {
+        &self.file
+    }
+}
+
 /// The `info` command.
 ///
 /// # Errors

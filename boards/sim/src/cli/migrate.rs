@@ -19,6 +19,13 @@ pub struct MigrateArgs {
     layout: Layout,
 }
 
+impl MigrateArgs {
+    /// The file the command reads (what its errors name).
+    pub fn input(&self) -> &std::path::Path {
+        &self.input
+    }
+}
+
 /// The `migrate` command.
 ///
 /// # Errors

@@ -44,6 +44,13 @@ pub struct RenderArgs {
     stream: StreamArgs,
 }
 
+impl RenderArgs {
+    /// The file the command reads (what its errors name).
+    pub fn input(&self) -> &std::path::Path {
+        &self.input
+    }
+}
+
 /// Streaming: `render --stream` and its budgets.
 #[derive(Debug, clap::Args)]
 pub struct StreamArgs {
@@ -107,6 +114,7 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
             io_budget: args.stream.io_budget,
             cache_bytes: args.stream.cache,
             max_frames: args.stream.max_frames,
+            ..StreamOptions::default()
         };
         let input = input.to_string_lossy();
         return pocketsplat_sim::stream::cmd::run(&input, out, &settings, &opts, args.stats_json);

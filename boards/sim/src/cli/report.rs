@@ -102,6 +102,18 @@ pub enum ReportKind {
     },
 }
 
+impl ReportKind {
+    /// The mesh, scene or folder of models the report measures, when it names one.
+    pub fn subject(&self) -> Option<PathBuf> {
+        match self {
+            ReportKind::ErrorVsTime { scene, .. } => Some(scene.clone()),
+            ReportKind::Views { mesh, .. } => mesh.clone(),
+            ReportKind::Paper { models, .. } | ReportKind::Shadows { models, .. } => models.clone(),
+            ReportKind::Stability { .. } => None,
+        }
+    }
+}
+
 /// The `report` command.
 ///
 /// # Errors

@@ -38,6 +38,13 @@ pub struct ViewArgs {
     color_by_level: bool,
 }
 
+impl ViewArgs {
+    /// The file the command reads (what its errors name).
+    pub fn input(&self) -> &std::path::Path {
+        &self.input
+    }
+}
+
 /// The `view` command.
 ///
 /// # Errors

@@ -58,6 +58,61 @@ pub struct TgInfo {
     pub paper_structure_bits_per_leaf: f64,
     /// Bits per leaf sample spent on group pointers.
     pub pointer_bits_per_leaf: f64,
+    /// What streaming the file takes (version 3; `null` for older files, which do not stream).
+    pub stream: Option<StreamInfo>,
+}
+
+/// What `render --stream` (or a device) needs to stream a version 3 `.tg` file.
+#[derive(Clone, Debug, Serialize)]
+pub struct StreamInfo {
+    /// The brick level (`null` without bricks).
+    pub brick_level: Option<u8>,
+    /// Bricks.
+    pub bricks: u32,
+    /// Blocks the largest brick spans.
+    pub largest_brick_blocks: u32,
+    /// The smallest block cache that streams it, bytes (`--cache`): smaller ones are refused.
+    pub cache_bytes: u64,
+}
+
+/// What streaming `tg` needs (`None` before version 3).
+fn stream_info(tg: &TriGrid<'_>) -> Option<StreamInfo> {
+    use pocketsplat_core::stream::{BlockEntry, MemSource, SlotEntry, StreamError, TgStream};
+    use pocketsplat_core::tg::brick::{check_table, slice_word};
+    let h = *tg.header();
+    if h.version < pocketsplat_core::tg::VERSION_BRICKS {
+        return None;
+    }
+    let mut dirs = [pocketsplat_core::tg::LevelDir::default(); pocketsplat_core::tg::MAX_LEVELS];
+    for (l, d) in dirs.iter_mut().enumerate().take(h.levels()) {
+        *d = tg.level(l as u8);
+    }
+    let largest_brick_blocks = if h.bricked() {
+        check_table(&h, &dirs, &mut |off, n| slice_word(tg.bytes(), off, n)).map_or(0, |s| s.brick)
+    } else {
+        0
+    };
+    // A cache as large as the file (within reason) says what it needs; a smaller one says so too.
+    let bs = h.block_size();
+    let slots = (h.blocks as usize).clamp(pocketsplat_core::stream::MIN_SLOTS, 4096);
+    use crate::memory::filled;
+    let (mut data, mut slot_mem) = (
+        filled(0u8, slots * bs).ok()?,
+        filled(SlotEntry::EMPTY, slots).ok()?,
+    );
+    let mut blocks = filled(BlockEntry::EMPTY, h.blocks as usize).ok()?;
+    let mut src = MemSource::new(tg.bytes());
+    let needed = match TgStream::open(&mut src, &mut data, &mut slot_mem, &mut blocks) {
+        Ok(s) => s.cache_need(),
+        Err(StreamError::CacheTooSmall { needed, .. }) => needed,
+        Err(_) => return None,
+    };
+    Some(StreamInfo {
+        brick_level: h.bricked().then_some(h.brick_level),
+        bricks: h.bricks,
+        largest_brick_blocks,
+        cache_bytes: u64::from(needed) * bs as u64,
+    })
 }
 
 /// Attribute bits per sample as stored (13-bit normal + material bits, in a u16; + colour).
@@ -113,6 +168,7 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
             * f64::from(sigma(tg) + u32::from(h.rho).pow(3))
             / l,
         pointer_bits_per_leaf: pointers as f64 * 32.0 / l,
+        stream: stream_info(tg),
     }
 }
 
@@ -168,6 +224,32 @@ impl TgInfo {
             self.paper_structure_bits_per_leaf,
             self.pointer_bits_per_leaf
         );
+        let cache = |s: &StreamInfo| crate::stream::run::cache_arg(s.cache_bytes);
+        let _ = match &self.stream {
+            Some(
+                s @ StreamInfo {
+                    brick_level: Some(r),
+                    ..
+                },
+            ) => writeln!(
+                out,
+                "  bricks: {} below level {r}, the largest {} blocks; streaming needs --cache {} \
+                 or more",
+                s.bricks,
+                s.largest_brick_blocks,
+                cache(s)
+            ),
+            Some(s) => writeln!(
+                out,
+                "  no bricks; streaming needs --cache {} or more",
+                cache(s)
+            ),
+            None => writeln!(
+                out,
+                "  version {}: not streamable (`pocketsplat migrate` writes version 3)",
+                self.version
+            ),
+        };
         out
     }
 }

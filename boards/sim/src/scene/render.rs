@@ -196,7 +196,10 @@ pub fn render_pack(
 ) -> Result<SceneFrame> {
     let mut table = scene_table();
     let cam = settings.camera(scene, [0.0; 3]);
-    let levels = settings.color_by_level.then(|| Levels::of_scene(scene));
+    let levels = settings
+        .color_by_level
+        .then(|| Levels::of_scene(scene))
+        .transpose()?;
     render_pack_from(
         scene,
         &cam,

@@ -28,8 +28,12 @@ pub fn run(
     let t = Instant::now();
     let mut fb = settings.buffers();
     let (outcome, http) = if HttpSource::is_url(input) {
-        let mut src = HttpSource::new(input)?;
-        // A server that ignores ranges or misses a deadline ends the render with its error.
+        let mut src = HttpSource::new(input)
+            .with_context(|| input.to_string())?
+            .with_deadlines(opts.request_deadline, opts.frame_deadline);
+        // Opening has one deadline, each frame one; a server that ignores ranges or misses a
+        // deadline ends the render with its error.
+        src.begin_open();
         let o = stream_render_with(&mut src, settings, opts, &mut fb, |s| {
             if let Some(why) = s.fatal() {
                 anyhow::bail!("{why}");

@@ -6,11 +6,13 @@
 //! `Content-Length` asked for, and counts every byte on the wire, which is the figure the streaming
 //! report needs. A connection the server closed is reopened once per read.
 //!
-//! Every request has an overall deadline ([`REQUEST_DEADLINE`]), and so have the reads of one frame
-//! ([`HttpSource::begin_frame`], [`FRAME_DEADLINE`]): a server that stalls or drips bytes is given up
-//! on, with an error that says which server did what. Such an error, or a server that ignores byte
-//! ranges, is also kept as [`HttpSource::fatal`], for a frame loop that should stop rather than
-//! retry the block forever.
+//! Every request has an overall deadline ([`REQUEST_DEADLINE`], 30 s), and so have the reads of
+//! one frame ([`HttpSource::begin_frame`], [`FRAME_DEADLINE`], 60 s) and all the reads of opening
+//! the stream together ([`HttpSource::begin_open`], the same 60 s): a server that stalls, drips
+//! bytes or never answers is given up on at the first deadline it misses, with an error that says
+//! which server did what. Such an error, or a server that ignores byte ranges, is kept as
+//! [`HttpSource::fatal`] and every later read fails at once with it, so that the retries of a
+//! reader (opening retries each read a few times) happen inside the deadlines, never around them.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
@@ -67,7 +69,7 @@ pub enum HttpError {
     /// The server did not complete a response within the deadline.
     #[error(
         "server at {server} sent {got} bytes in {secs} s for a {want}-byte range of {path}: gave up \
-         at the deadline per {per}"
+         at the {limit} s deadline {per}"
     )]
     Stalled {
         /// `host:port`.
@@ -80,9 +82,15 @@ pub enum HttpError {
         want: u64,
         /// Seconds the request ran.
         secs: f64,
-        /// `"request"` or `"frame"`: which deadline ended it.
+        /// The deadline that ended it, seconds.
+        limit: f64,
+        /// `"per request"`, `"per frame"` or `"for opening the stream"`: which deadline it was.
         per: &'static str,
     },
+    /// An earlier read failed in a way retrying cannot cure ([`HttpSource::fatal`]): this read
+    /// was not sent.
+    #[error("{0}")]
+    GaveUp(String),
     /// The response is not well-formed HTTP/1.1, or not the range asked for.
     #[error("bad response: {0}")]
     BadResponse(String),
@@ -105,11 +113,12 @@ struct Wire {
 impl Read for Wire {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         if let Some(d) = self.deadline {
+            // A server that sends nothing is waited for until the deadline, as one that drips.
             let left = d.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Err(std::io::ErrorKind::TimedOut.into());
             }
-            self.s.set_read_timeout(Some(left.min(TIMEOUT)))?;
+            self.s.set_read_timeout(Some(left))?;
         }
         let n = self.s.read(buf)?;
         self.got += n as u64;
@@ -144,6 +153,8 @@ pub struct HttpSource {
     request_limit: Duration,
     frame_limit: Duration,
     frame_deadline: Option<Instant>,
+    /// What the frame deadline is for: `"per frame"` or `"for opening the stream"`.
+    frame_what: &'static str,
     fatal: Option<String>,
     /// Response bytes the last request received (for [`HttpError::Stalled`]).
     last_got: u64,
@@ -200,6 +211,7 @@ impl HttpSource {
             request_limit: REQUEST_DEADLINE,
             frame_limit: FRAME_DEADLINE,
             frame_deadline: None,
+            frame_what: "per frame",
             fatal: None,
             last_got: 0,
             counters: HttpCounters::default(),
@@ -214,13 +226,21 @@ impl HttpSource {
         self
     }
 
-    /// Starts a frame: the reads until the next call share one deadline.
+    /// Starts a frame: the reads until the next call share one deadline (the frame's).
     pub fn begin_frame(&mut self) {
         self.frame_deadline = Some(Instant::now() + self.frame_limit);
+        self.frame_what = "per frame";
+    }
+
+    /// Starts opening the stream: every read of it (header, CRC table, head, brick table, with
+    /// their retries) shares one deadline, as long as a frame's.
+    pub fn begin_open(&mut self) {
+        self.frame_deadline = Some(Instant::now() + self.frame_limit);
+        self.frame_what = "for opening the stream";
     }
 
     /// The first error that retrying will not cure (a server that ignores ranges, or one that
-    /// missed a deadline), as its message.
+    /// missed a deadline), as its message. Every read after it fails at once with it.
     pub fn fatal(&self) -> Option<&str> {
         self.fatal.as_deref()
     }
@@ -244,13 +264,17 @@ impl HttpSource {
         }
     }
 
-    fn connect(&mut self) -> Result<&mut BufReader<Wire>, HttpError> {
+    fn connect(&mut self, deadline: Instant) -> Result<&mut BufReader<Wire>, HttpError> {
+        // Connecting and sending wait no longer than the deadline either.
+        let timeout = deadline
+            .saturating_duration_since(Instant::now())
+            .clamp(Duration::from_millis(1), TIMEOUT);
         if self.conn.is_none() {
             // Every address the name has, in order (`localhost` may give ::1 before 127.0.0.1).
             let mut last = None;
             let mut stream = None;
             for addr in (self.host.as_str(), self.port).to_socket_addrs()? {
-                match TcpStream::connect_timeout(&addr, TIMEOUT) {
+                match TcpStream::connect_timeout(&addr, timeout) {
                     Ok(s) => {
                         stream = Some(s);
                         break;
@@ -264,7 +288,6 @@ impl HttpSource {
                 (None, None) => return Err(HttpError::BadUrl(self.authority())),
             };
             s.set_read_timeout(Some(TIMEOUT))?;
-            s.set_write_timeout(Some(TIMEOUT))?;
             s.set_nodelay(true)?;
             self.counters.connections += 1;
             self.conn = Some(BufReader::with_capacity(
@@ -276,7 +299,9 @@ impl HttpSource {
                 },
             ));
         }
-        Ok(self.conn.as_mut().expect("connected above"))
+        let conn = self.conn.as_mut().expect("connected above");
+        conn.get_ref().s.set_write_timeout(Some(timeout))?;
+        Ok(conn)
     }
 
     /// The file's length, from the `Content-Range` of a one-byte range.
@@ -292,12 +317,15 @@ impl HttpSource {
     fn range(&mut self, offset: u64, buf: &mut [u8]) -> Result<u64, HttpError> {
         // A kept-alive connection may have been closed by the server since the last request: on an
         // I/O error before any of the response arrived, reconnect once.
+        if let Some(why) = &self.fatal {
+            return Err(HttpError::GaveUp(why.clone()));
+        }
         let reused = self.conn.is_some();
         let start = Instant::now();
         let by_request = start + self.request_limit;
-        let (deadline, per) = match self.frame_deadline {
-            Some(f) if f < by_request => (f, "frame"),
-            _ => (by_request, "request"),
+        let (deadline, per, limit) = match self.frame_deadline {
+            Some(f) if f < by_request => (f, self.frame_what, self.frame_limit),
+            _ => (by_request, "per request", self.request_limit),
         };
         let r = match self.try_range(offset, buf, deadline) {
             Err(HttpError::Io(e)) if reused && !timed_out(&e) && Instant::now() < deadline => {
@@ -313,6 +341,7 @@ impl HttpSource {
                 got: self.last_got,
                 want: buf.len() as u64,
                 secs: (Instant::now() - start).as_secs_f64().round_to_tenths(),
+                limit: limit.as_secs_f64().round_to_tenths(),
                 per,
             }),
             r => r,
@@ -362,7 +391,7 @@ impl HttpSource {
         deadline: Instant,
     ) -> Result<u64, HttpError> {
         let (server, path) = (self.server(), self.path.clone());
-        let conn = self.connect()?;
+        let conn = self.connect(deadline)?;
         let wire = conn.get_mut();
         wire.deadline = Some(deadline);
         wire.got = 0;
@@ -726,7 +755,10 @@ pub(crate) mod tests {
                 std::thread::sleep(Duration::from_millis(100));
             }
         };
-        for (request, frame, per) in [(600u64, 60_000u64, "request"), (60_000, 400, "frame")] {
+        for (request, frame, per) in [
+            (600u64, 60_000u64, "0.6 s deadline per request"),
+            (60_000, 400, "0.4 s deadline per frame"),
+        ] {
             let (port, server) = serve_with(drip);
             let mut src = HttpSource::new(&format!("http://127.0.0.1:{port}/m.tg"))
                 .unwrap()
@@ -744,7 +776,7 @@ pub(crate) mod tests {
             assert!(err.starts_with(&prefix), "{err}");
             assert!(
                 err.ends_with(&format!(
-                    " s for a 4096-byte range of /m.tg: gave up at the deadline per {per}"
+                    " s for a 4096-byte range of /m.tg: gave up at the {per}"
                 )) && err.contains(" bytes in "),
                 "{err}"
             );
@@ -756,6 +788,10 @@ pub(crate) mod tests {
                 .unwrap();
             assert!((8..100).contains(&got), "{err}");
             assert!(src.fatal().is_some());
+            // Later reads fail at once with the same error: retries cost no time.
+            let t = Instant::now();
+            assert_eq!(src.read_at(0, &mut buf).unwrap_err().to_string(), err);
+            assert!(t.elapsed() < Duration::from_millis(50));
             drop(src);
             server.join().unwrap();
         }

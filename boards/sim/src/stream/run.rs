@@ -1,13 +1,14 @@
 //! The streaming frame loop on the desktop: memory for a [`TgStream`], one frame drawn from what is
 //! resident, and `render --stream` (draw, serve the budget, repeat until a frame misses nothing).
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use pocketsplat_core::camera::Camera;
 use pocketsplat_core::render::{render_stream, StreamPass};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
-    read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, TgStream,
+    read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, StreamError,
+    TgStream,
 };
 use pocketsplat_core::tg::Header;
 
@@ -25,6 +26,31 @@ pub struct OwnedStream {
     data: Vec<u8>,
     slots: Vec<SlotEntry>,
     blocks: Vec<BlockEntry>,
+    /// Blocks of the cache asked for (the memory may hold more, for opening).
+    asked: usize,
+}
+
+/// A size as `--cache` takes it: `NM` or `NK` (rounded up), else bytes.
+pub fn cache_arg(bytes: u64) -> String {
+    if bytes >= 1 << 20 && bytes % (1 << 20) == 0 {
+        format!("{}M", bytes >> 20)
+    } else if bytes >= 1024 {
+        format!("{}K", bytes.div_ceil(1024))
+    } else {
+        bytes.to_string()
+    }
+}
+
+/// The error of a cache smaller than the file needs: the cache given, and the one it needs.
+fn too_small(cache_bytes: usize, block_size: usize, needed: u32) -> anyhow::Error {
+    let need = u64::from(needed) * block_size as u64;
+    anyhow::anyhow!(
+        "--cache {} is too small for this file: a pass needs {needed} of its {block_size}-byte \
+         blocks resident at once, so streaming it needs --cache {} or more (a smaller cache would \
+         never finish the frame)",
+        cache_arg(cache_bytes as u64),
+        cache_arg(need.max(4096))
+    )
 }
 
 impl OwnedStream {
@@ -58,22 +84,41 @@ impl OwnedStream {
                 )
             })?;
         }
-        let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
-        Ok(Self {
-            header,
-            data: vec![0u8; slots * bs],
-            slots: vec![SlotEntry::EMPTY; slots],
-            blocks: vec![BlockEntry::EMPTY; header.blocks as usize],
-        })
+        // Opening reads the head and brick table through a few slots, even when the cache asked
+        // for is smaller than that: `open` then says what the file needs.
+        let asked = cache_bytes / bs;
+        let slots = asked.max(pocketsplat_core::stream::MIN_SLOTS);
+        // Sized by `--cache` and by the header's block count (bounded above): asked for, so that
+        // a limit raised past the memory there is ends in an error.
+        let memory = || -> Result<Self> {
+            Ok(Self {
+                header,
+                data: crate::memory::filled(0u8, slots * bs)?,
+                slots: crate::memory::filled(SlotEntry::EMPTY, slots)?,
+                blocks: crate::memory::filled(BlockEntry::EMPTY, header.blocks as usize)?,
+                asked,
+            })
+        };
+        memory().context("cannot allocate the block cache and the table of blocks")
     }
 
     /// Opens the stream over this memory.
     ///
     /// # Errors
-    /// When the header or the CRC table cannot be read.
+    /// When the header or the CRC table cannot be read, or the cache asked for is smaller than what
+    /// a pass over this file needs at once (the message names the `--cache` it needs).
     pub fn open<C: ChunkSource + ?Sized>(&mut self, src: &mut C) -> Result<TgStream<'_>> {
-        TgStream::open(src, &mut self.data, &mut self.slots, &mut self.blocks)
-            .map_err(|e| anyhow::anyhow!("{e}"))
+        let asked = self.asked;
+        let bs = self.header.block_size();
+        let stream = TgStream::open(src, &mut self.data, &mut self.slots, &mut self.blocks)
+            .map_err(|e| match e {
+                StreamError::CacheTooSmall { needed, .. } => too_small(asked * bs, bs, needed),
+                e => anyhow::anyhow!("{e}"),
+            })?;
+        if (asked as u64) < u64::from(stream.cache_need()) {
+            return Err(too_small(asked * bs, bs, stream.cache_need()));
+        }
+        Ok(stream)
     }
 
     /// Bytes of the cache.
@@ -158,6 +203,11 @@ pub struct StreamOptions {
     pub cache_bytes: usize,
     /// Give up after this many frames.
     pub max_frames: u32,
+    /// An HTTP source's deadline per request ([`super::http::REQUEST_DEADLINE`]).
+    pub request_deadline: std::time::Duration,
+    /// An HTTP source's deadline per frame, and for opening the stream
+    /// ([`super::http::FRAME_DEADLINE`]).
+    pub frame_deadline: std::time::Duration,
 }
 
 impl Default for StreamOptions {
@@ -166,6 +216,8 @@ impl Default for StreamOptions {
             io_budget: 64 * 1024,
             cache_bytes: 16 << 20,
             max_frames: 100_000,
+            request_deadline: super::http::REQUEST_DEADLINE,
+            frame_deadline: super::http::FRAME_DEADLINE,
         }
     }
 }
@@ -226,6 +278,7 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
 ) -> Result<StreamOutcome> {
     let mut mem = OwnedStream::new(src, opts.cache_bytes)?;
     let file_bytes = u64::from(mem.header.blocks) << mem.header.block_log2;
+    let mem_block_size = mem.header.block_size();
     let mut stream = mem.open(src)?;
     let cam = camera_for(&stream, settings);
     let mut table = Box::new(ShadingTable::<1>::new());
@@ -253,7 +306,13 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
         if stream.converged() && (!refining || stream.refined_done()) {
             break;
         }
-        if !refining && stream.working_set() as usize > stream.cache().capacity() {
+        // Frames drawn whole converge only while the cache keeps everything they read: once it
+        // evicts (it is full) they may take turns evicting what the next one needs, so the frame
+        // goes on in passes, which converge through any cache `open` accepted.
+        if !refining
+            && (stream.working_set() as usize > stream.cache().capacity()
+                || stream.counters().evictions > 0)
+        {
             refining = true;
             first_pass = true;
             at_refine = *stream.counters();
@@ -299,6 +358,29 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
         before_serve(src)?;
         let r = stream.serve(src, opts.io_budget);
         outcome.per_frame.push(r);
+        if r.no_room > 0 && r.reads == 0 {
+            // The cache gave no slot for what this frame needs, and nothing else was read: the
+            // next frame would be this one again. A frame drawn whole goes on in passes; a pass
+            // that cannot go on stops here, naming the cache (`open` accepted it: the need it
+            // worked out was too low, which is a bug).
+            if !refining {
+                refining = true;
+                first_pass = true;
+                at_refine = *stream.counters();
+                outcome.stats = Stats::default();
+                continue;
+            }
+            let bs = mem_block_size;
+            bail!(
+                "a pass found no room in the cache of {} blocks ({} bytes) for the {} blocks it \
+                 needs next, so the frame cannot be finished; this file was taken to need {} \
+                 blocks (a bug in that bound): try a larger --cache",
+                stream.cache().capacity(),
+                stream.cache().capacity() * bs,
+                r.no_room,
+                stream.cache_need()
+            );
+        }
     }
     outcome.counters = *stream.counters();
     if refining {
