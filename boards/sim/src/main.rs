@@ -16,10 +16,15 @@ use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
     about = "Hierarchical point rendering for FPU-less handhelds"
 )]
 struct Cli {
+    /// Memory a bake may use (K, M, G = 1024, 1024², 1024³; default: half the machine's). A mesh
+    /// whose bake needs more bakes out of core, in pieces through spill files; the limits on
+    /// counts follow: vertices=MEMORY/64, triangles=MEMORY/16, ply=4×MEMORY (at least 2G).
+    #[arg(long, global = true, value_name = "SIZE", value_parser = pocketsplat_sim::args::size::<u64>(1 << 20, 1 << 46))]
+    memory: Option<u64>,
     /// Raise or lower input limits, NAME=SIZE[,NAME=SIZE...] (K, M, G = 1024, 1024², 1024³):
-    /// file=1G (a file read whole), scene=16M (a scene file), ply=2G (a PLY once decompressed),
-    /// vertices=16M and triangles=32M (declared in a PLY), bake=1G (a bake's estimated memory),
-    /// stream=8G (a file read with --stream, as its header claims).
+    /// file=1G (a file read whole), scene=16M (a scene file), ply (a PLY once decompressed),
+    /// vertices and triangles (declared in a PLY), bake (= --memory), stream=8G (a file read with
+    /// --stream, as its header claims).
     #[arg(long, global = true, value_name = "NAME=SIZE")]
     limits: Vec<String>,
     #[command(subcommand)]
@@ -52,11 +57,15 @@ enum Command {
 
 /// Runs the command; `matches` are the whole command line's, parsed into `cli`.
 fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
-    let mut limits = pocketsplat_sim::limits::Limits::DEFAULT;
+    let memory = cli
+        .memory
+        .unwrap_or_else(pocketsplat_sim::bake::budget::default_budget);
+    let mut limits = pocketsplat_sim::limits::Limits::for_memory(memory);
     for l in &cli.limits {
         limits.apply(l)?;
     }
     pocketsplat_sim::limits::set_current(limits);
+    pocketsplat_sim::fsutil::remove_on_interrupt();
     match cli.command {
         None => cli::demo::run(),
         Some(Command::Bake(args)) => cli::bake::run(&args),

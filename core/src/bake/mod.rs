@@ -13,6 +13,8 @@ mod grid;
 mod mesh;
 pub mod piece;
 
+pub use piece::{bake_piece, stitch, CellSplit, Part};
+
 pub use cell::{corners, sample_at, Cell, Closest, Surface};
 pub use geom::triangle_normal;
 pub use grid::{
