@@ -36,6 +36,9 @@ enum Command {
     /// Bake a triangle mesh (PLY, ASCII or binary, optionally gzipped) into a point file, or a
     /// scene file (`.toml`, see boards/sim/scenes/) into a scene pack.
     Bake(cli::bake::BakeArgs),
+    /// Write a large test scan: a displaced sphere of about N triangles sampled as a scanner's
+    /// range grids are, as binary PLY (for measuring bakes; never commit its output).
+    Generate(cli::generate::GenerateArgs),
     /// Describe a point file (header, samples and α per level, size per leaf sample) or a scene
     /// pack (per object what is present and what was left out, and the RAM a frame needs).
     Info(cli::info::InfoArgs),
@@ -69,6 +72,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
     match cli.command {
         None => cli::demo::run(),
         Some(Command::Bake(args)) => cli::bake::run(&args),
+        Some(Command::Generate(args)) => cli::generate::run(&args),
         Some(Command::Info(args)) => cli::info::run(&args),
         Some(Command::Migrate(args)) => cli::migrate::run(&args),
         Some(Command::Render(args)) => {
