@@ -213,8 +213,14 @@ pub fn remove_on_interrupt() {
         // The handler runs on a thread of its own, so it may take the lock and remove files.
         let _ = ctrlc::set_handler(|| {
             let pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
-            for p in pending.iter() {
-                remove_path(p);
+            // A worker may add a file to a folder while it is removed: try again.
+            for _ in 0..5 {
+                for p in pending.iter() {
+                    remove_path(p);
+                }
+                if pending.iter().all(|p| !p.exists()) {
+                    break;
+                }
             }
             eprintln!("\ninterrupted: temporary files removed");
             std::process::exit(130);
