@@ -294,7 +294,7 @@ fn layout(
         r,
         r.children.len() as u32,
     );
-    let start = out.len() - HEADER_BYTES as usize;
+    let start = out.len() - HEADER_BYTES;
     out.reserve(tree_len as usize);
     let mut pointers = 0u64;
     for &p in &parents {

@@ -376,12 +376,13 @@ pub fn bake_tg(
     })
 }
 
+/// What the pass over the faces finds: vertex normals, the box of the referenced vertices, the
+/// area.
+type Normals = (Vec<[f64; 3]>, ([f64; 3], [f64; 3]), f64);
+
 /// The pass over the faces: each index checked, the area-weighted vertex normals summed in face
 /// order (those of faces with area), the box of the referenced vertices, and the total area.
-fn normals(
-    s: &Scan,
-    bar: &indicatif::ProgressBar,
-) -> Result<(Vec<[f64; 3]>, ([f64; 3], [f64; 3]), f64)> {
+fn normals(s: &Scan, bar: &indicatif::ProgressBar) -> Result<Normals> {
     let mut normals = vec![[0.0f64; 3]; s.positions.len()];
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];

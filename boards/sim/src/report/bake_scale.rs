@@ -176,9 +176,9 @@ pub fn read_csv(path: &Path) -> Result<Vec<ScaleRow>> {
 
 /// The Markdown table.
 pub fn table(rows: &[ScaleRow], o: &ScaleOptions) -> String {
-    let mut s = format!(
-        "| triangles | format | seconds | peak RSS | output bytes | pieces |\n|---|---|---|---|---|---|\n"
-    );
+    let mut s = "| triangles | format | seconds | peak RSS | output bytes | pieces |\n\
+                 |---|---|---|---|---|---|\n"
+        .to_owned();
     for r in rows {
         let what = if r.format == "tg" {
             format!("`.tg` depth {}", o.depth)
