@@ -87,7 +87,7 @@ pub fn bake_qs(
     limits: &Limits,
 ) -> Result<OocQs> {
     let name = path.display();
-    let counts = crate::ply::read_counts(path)?;
+    let counts = crate::ply::read_counts(path, limits)?;
     let per_vertex = Positions::bytes_per_vertex(counts.exact_f32)
         + POINT_BYTES
         + if counts.color { 3 } else { 0 };

@@ -250,7 +250,7 @@ pub fn bake_tg(
     limits: &Limits,
 ) -> Result<OocGrid> {
     let name = path.display();
-    let counts = crate::ply::read_counts(path)?;
+    let counts = crate::ply::read_counts(path, limits)?;
     let per_vertex =
         Positions::bytes_per_vertex(counts.exact_f32) + 24 + if counts.color { 3 } else { 0 };
     let vertex_bytes = counts.vertices.saturating_mul(per_vertex);

@@ -63,7 +63,7 @@ pub struct BakeDone {
 
 /// Whether `job` bakes in memory: `--force`, or neither `--out-of-core` nor a need over the
 /// budget by the header's counts (for `.tg` the caller checks the probe's estimate too).
-fn in_memory_by_counts(job: &BakeJob) -> bool {
+fn in_memory_by_counts(job: &BakeJob, limits: &Limits) -> bool {
     if job.force {
         return true;
     }
@@ -71,7 +71,7 @@ fn in_memory_by_counts(job: &BakeJob) -> bool {
         return false;
     }
     // A file whose header cannot be read bakes in memory, which reports why.
-    let Ok(c) = crate::ply::read_counts(&job.mesh) else {
+    let Ok(c) = crate::ply::read_counts(&job.mesh, limits) else {
         return true;
     };
     let need = match job.format {
@@ -91,7 +91,7 @@ fn in_memory_by_counts(job: &BakeJob) -> bool {
 /// `job.out` then.
 pub fn bake(job: &BakeJob, limits: &Limits) -> Result<BakeDone> {
     let t = Instant::now();
-    let in_memory = in_memory_by_counts(job);
+    let in_memory = in_memory_by_counts(job, limits);
     let (what, bytes, ooc) = match job.format {
         BakeFormat::QSplat => bake_qs_job(job, limits, in_memory)?,
         BakeFormat::TriGrid => bake_tg_job(job, limits, in_memory)?,

@@ -386,13 +386,14 @@ pub struct DeclaredCounts {
     pub exact_f32: bool,
 }
 
-/// Reads the header of a PLY file (gzipped or not) and returns what it declares, so that a bake
-/// can choose its path before it reads the body.
+/// Reads the header of a PLY file (gzipped or not) and returns what it declares, checked against
+/// `limits` as [`load_mesh_with`] checks it, so that a bake can choose its path before it reads the
+/// body.
 ///
 /// # Errors
 /// As [`load_mesh_with`] for the file and its header.
-pub fn read_counts(path: &Path) -> Result<DeclaredCounts, PlyError> {
-    let (name, mut reader, _) = open(path)?;
+pub fn read_counts(path: &Path, limits: &Limits) -> Result<DeclaredCounts, PlyError> {
+    let (name, mut reader, len) = open(path)?;
     let mut magic = [0u8; 2];
     let n = read_prefix(&mut reader, &mut magic).map_err(|error| PlyError::Io {
         file: name.clone(),
@@ -400,11 +401,23 @@ pub fn read_counts(path: &Path) -> Result<DeclaredCounts, PlyError> {
     })?;
     let prefix = magic.get(..n).unwrap_or_default();
     let stream = prefix.chain(reader);
-    let header = if prefix == GZIP_MAGIC {
-        read_header(&name, &mut BufReader::new(MultiGzDecoder::new(stream)))?.0
+    let (header, len, header_bytes) = if prefix == GZIP_MAGIC {
+        let (h, _, bytes) = read_header(&name, &mut BufReader::new(MultiGzDecoder::new(stream)))?;
+        (h, None, bytes)
     } else {
-        read_header(&name, &mut BufReader::new(stream))?.0
+        limits
+            .check("ply", "size in bytes", len)
+            .map_err(|error| PlyError::Limit {
+                file: name.clone(),
+                error,
+            })?;
+        let (h, _, bytes) = read_header(&name, &mut BufReader::new(stream))?;
+        (h, Some(len), bytes)
     };
+    if let Some(def) = header.elements.get("face") {
+        check_face(&name, def)?;
+    }
+    check_counts(&name, &header, limits, len, header_bytes)?;
     let vertex = header
         .elements
         .get("vertex")
