@@ -92,6 +92,9 @@ pub enum ReportKind {
         /// Only redraw PREFIX.md and PREFIX.png from PREFIX.csv.
         #[arg(long)]
         redraw: bool,
+        /// Bake every size out of core, also those that fit in memory.
+        #[arg(long)]
+        out_of_core: bool,
     },
     /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
     Paper {
@@ -162,6 +165,7 @@ pub fn run(which: ReportKind) -> Result<()> {
             depth,
             work,
             redraw,
+            out_of_core,
         } => {
             let o = report::bake_scale::ScaleOptions {
                 sizes,
@@ -169,6 +173,7 @@ pub fn run(which: ReportKind) -> Result<()> {
                 depth,
                 work,
                 out,
+                out_of_core,
             };
             let rows = if redraw {
                 let rows = report::bake_scale::read_csv(&o.out.with_extension("csv"))?;

@@ -31,6 +31,9 @@ pub struct ScaleOptions {
     pub work: PathBuf,
     /// Output prefix: `PREFIX.csv`, `PREFIX.md`, `PREFIX.png`.
     pub out: PathBuf,
+    /// Bake every size out of core (`bake --out-of-core`), so that the sizes that fit in memory
+    /// show the out-of-core path too.
+    pub out_of_core: bool,
 }
 
 /// One bake measured.
@@ -108,6 +111,7 @@ pub fn measure(o: &ScaleOptions, exe: &Path) -> Result<Vec<ScaleRow>> {
                 .arg(&out)
                 .args(["--format", format, "--depth", &o.depth.to_string()])
                 .args(["--memory", &o.memory.to_string()])
+                .args(o.out_of_core.then_some("--out-of-core"))
                 .output()
                 .with_context(|| format!("cannot run {}", exe.display()))?;
             let seconds = t.elapsed().as_secs_f64();
@@ -366,6 +370,7 @@ mod tests {
             depth: 7,
             work: PathBuf::new(),
             out: PathBuf::new(),
+            out_of_core: false,
         };
         assert!(table(&rows, &o).contains("| 8.0 M | `.tg` depth 7 | 20.0 | 1.00 GB | 1000 | 3 |"));
         let png = plot(&rows, 4 << 30).unwrap();
