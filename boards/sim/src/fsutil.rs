@@ -126,15 +126,7 @@ pub fn read_scene_text(path: &Path) -> Result<String> {
 /// # Errors
 /// When the folder is not writable or the rename fails; the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp = temp_name(path);
     let _guard = Removed::new(tmp.clone());
     let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)
@@ -149,6 +141,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The temporary name an output is written under, in its folder: `.NAME.PID.tmp`.
+fn temp_name(path: &Path) -> PathBuf {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    dir.join(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Paths removed when the program is interrupted: every [`Removed`] alive.
@@ -244,15 +249,7 @@ impl AtomicFile {
     /// # Errors
     /// When the folder is not writable; the message names the file.
     pub fn create(path: &Path, len: u64) -> Result<Self> {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let tmp = Removed::new(dir.join(format!(".{name}.{}.tmp", std::process::id())));
+        let tmp = Removed::new(temp_name(path));
         let file = File::create(tmp.path())
             .with_context(|| format!("cannot create {}", tmp.path().display()))?;
         file.set_len(len)

@@ -25,7 +25,9 @@ pub use super::build::{accumulate, triangle_contribution, Point};
 use super::build::{
     decode_root, normal_errors, parts, quantize, set_colors, table_index, Builder, Codes, Errors,
 };
-use super::write::{file_head, record, BakedNode, QsBakeError, QsBakeOptions, QsStats};
+use super::write::{
+    file_head, record, write_group, BakedNode, QsBakeError, QsBakeOptions, QsStats,
+};
 use super::{HEADER_BYTES, MAX_DEPTH};
 
 /// The points of a bake, by id: ids ascend in the order of the mesh's vertices (the in-memory
@@ -490,21 +492,15 @@ impl QsPlan {
         for (d, level) in levels.iter().enumerate() {
             let mut bytes = Vec::new();
             for &p in level {
-                let here = group_at[p as usize];
-                let kids = &nodes[p as usize].children;
-                let is_interior = |c: u32| !nodes[c as usize].children.is_empty();
-                if has_pointer(&nodes, p, arr.single && p == root) {
-                    let target = kids
-                        .iter()
-                        .find(|&&c| is_interior(c))
-                        .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at[c as usize]);
-                    bytes.extend_from_slice(&((target - here) as i32).to_be_bytes());
-                }
-                for &c in kids {
-                    let n = &nodes[c as usize];
-                    let grand = n.children.iter().any(|&g| is_interior(g));
-                    bytes.extend_from_slice(&record(n, n.children.len(), grand, self.color));
-                }
+                let pointer = has_pointer(&nodes, p, arr.single && p == root);
+                write_group(
+                    &nodes,
+                    p,
+                    pointer,
+                    |c| group_at[c as usize],
+                    self.color,
+                    &mut bytes,
+                );
             }
             if !bytes.is_empty() {
                 write_at(arr.bases[k][d], &bytes)?;

@@ -298,22 +298,16 @@ fn layout(
     out.reserve(tree_len as usize);
     let mut pointers = 0u64;
     for &p in &parents {
-        let kids = &nodes[p as usize].children;
         debug_assert_eq!((out.len() - start) as u64, group_at[p as usize]);
-        if has_pointer(p) {
-            pointers += 1;
-            let here = group_at[p as usize];
-            let target = kids
-                .iter()
-                .find(|&&c| is_interior(c))
-                .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at[c as usize]);
-            out.extend_from_slice(&((target - here) as i32).to_be_bytes());
-        }
-        for &c in kids {
-            let n = &nodes[c as usize];
-            let grand = n.children.iter().any(|&g| is_interior(g));
-            out.extend_from_slice(&record(n, n.children.len(), grand, color));
-        }
+        pointers += u64::from(has_pointer(p));
+        write_group(
+            nodes,
+            p,
+            has_pointer(p),
+            |c| group_at[c as usize],
+            color,
+            &mut out,
+        );
     }
     pad4(&mut out, start);
     debug_assert_eq!((out.len() - start) as u64, tree_len);
@@ -363,6 +357,35 @@ pub(super) fn file_head(
     out.extend_from_slice(&(root.decoded_radius as f32).to_be_bytes());
     put_u32(&mut out, root_children);
     out
+}
+
+/// Appends node `p`'s group, which starts at `group_at(p)` (fragment offsets): its pointer when
+/// `pointer` (to its first child with children, or past the group when none has), then its
+/// children's records.
+pub(super) fn write_group(
+    nodes: &[BakedNode],
+    p: u32,
+    pointer: bool,
+    group_at: impl Fn(u32) -> u64,
+    color: bool,
+    out: &mut Vec<u8>,
+) {
+    let ns: u64 = if color { 6 } else { 4 };
+    let kids = &nodes[p as usize].children;
+    let is_interior = |c: u32| !nodes[c as usize].children.is_empty();
+    if pointer {
+        let here = group_at(p);
+        let target = kids
+            .iter()
+            .find(|&&c| is_interior(c))
+            .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at(c));
+        out.extend_from_slice(&((target - here) as i32).to_be_bytes());
+    }
+    for &c in kids {
+        let n = &nodes[c as usize];
+        let grand = n.children.iter().any(|&g| is_interior(g));
+        out.extend_from_slice(&record(n, n.children.len(), grand, color));
+    }
 }
 
 /// A node's record as the file stores it: 4 bytes, or 6 with `color`.

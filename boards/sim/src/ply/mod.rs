@@ -315,16 +315,21 @@ fn read_into(
         })
     } else {
         if let Some(len) = len {
-            limits
-                .check("ply", "size in bytes", len)
-                .map_err(|error| PlyError::Limit {
-                    file: name.to_owned(),
-                    error,
-                })?;
+            check_size(name, limits, len)?;
         }
         let mut reader = BufReader::with_capacity(BUFFER_BYTES, Capped::new(stream, limits.ply));
         read_ply(name, &mut reader, limits, len, sink)
     }
+}
+
+/// A file of `len` bytes against the `ply` limit.
+fn check_size(name: &str, limits: &Limits, len: u64) -> Result<(), PlyError> {
+    limits
+        .check("ply", "size in bytes", len)
+        .map_err(|error| PlyError::Limit {
+            file: name.to_owned(),
+            error,
+        })
 }
 
 fn read_ply(
@@ -405,12 +410,7 @@ pub fn read_counts(path: &Path, limits: &Limits) -> Result<DeclaredCounts, PlyEr
         let (h, _, bytes) = read_header(&name, &mut BufReader::new(MultiGzDecoder::new(stream)))?;
         (h, None, bytes)
     } else {
-        limits
-            .check("ply", "size in bytes", len)
-            .map_err(|error| PlyError::Limit {
-                file: name.clone(),
-                error,
-            })?;
+        check_size(&name, limits, len)?;
         let (h, _, bytes) = read_header(&name, &mut BufReader::new(stream))?;
         (h, Some(len), bytes)
     };
