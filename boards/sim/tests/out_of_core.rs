@@ -182,6 +182,40 @@ fn refused_and_failed_bakes_leave_nothing() {
     );
 }
 
+/// A mesh whose spill file would not fit the disk: refused with the sizes before anything is
+/// read. The PLY is sparse: a header of 3 vertices and more faces than the disk's free bytes / 12,
+/// which the file's length can hold (its body, never read, is a hole).
+#[test]
+fn a_mesh_too_large_for_the_disk_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let free = pocketsplat_sim::bake::budget::free_disk(d).expect("statvfs");
+    let faces = free / 12 + free / 100 + (1 << 20);
+    let header = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+         property float y\nproperty float z\nelement face {faces}\n\
+         property list uchar int vertex_indices\nend_header\n"
+    );
+    let f = std::fs::File::create(d.join("huge.ply")).unwrap();
+    std::io::Write::write_all(&mut &f, header.as_bytes()).unwrap();
+    f.set_len(header.len() as u64 + 36 + 13 * faces).unwrap();
+    drop(f);
+    // A budget whose count limits admit the faces (triangles = MEMORY/16).
+    let memory = (16 * faces).next_power_of_two().to_string();
+    let t = Instant::now();
+    for format in ["qs", "tg"] {
+        fails(
+            d,
+            &[
+                "bake", "huge.ply", "-o", "o.out", "--format", format, "--out-of-core",
+                "--memory", &memory,
+            ],
+            &["huge.ply", "of disk for", "free", "--spill-dir"],
+        );
+    }
+    assert!(t.elapsed() < Duration::from_secs(20), "{:?}", t.elapsed());
+}
+
 /// Ctrl-C in the middle of an out-of-core bake: exit 130, and the spill folder and the
 /// temporary output are gone.
 #[test]

@@ -19,7 +19,7 @@ use super::tg::{tg_info_of, TgInfo};
 
 /// Largest file `info` reads whole (and checks entirely); larger ones are read as this module
 /// reads them.
-pub const RESIDENT_MAX: u64 = 64 << 20;
+pub const RESIDENT_MAX: u64 = 16 << 20;
 
 /// Reads exactly `buf.len()` bytes or says the file ends early.
 fn read_exact(r: &mut impl Read, buf: &mut [u8], path: &Path, what: &str) -> Result<()> {
