@@ -207,8 +207,15 @@ fn a_mesh_too_large_for_the_disk_is_refused_before_it_is_read() {
         fails(
             d,
             &[
-                "bake", "huge.ply", "-o", "o.out", "--format", format, "--out-of-core",
-                "--memory", &memory,
+                "bake",
+                "huge.ply",
+                "-o",
+                "o.out",
+                "--format",
+                format,
+                "--out-of-core",
+                "--memory",
+                &memory,
             ],
             &["huge.ply", "of disk for", "free", "--spill-dir"],
         );

@@ -337,8 +337,25 @@ pub fn run(o: &ScaleOptions, exe: &Path) -> Result<Vec<ScaleRow>> {
 pub fn write_page(rows: &[ScaleRow], o: &ScaleOptions) -> Result<()> {
     let md = o.out.with_extension("md");
     let png = o.out.with_extension("png");
-    std::fs::write(&md, table(rows, o))
-        .with_context(|| format!("cannot write {}", md.display()))?;
+    let name = png
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let page = format!(
+        "# Bakes of generated scans{}\n\nMeasured by `pocketsplat --memory {} report bake-scale{}` \
+         (`scripts/bake-scale`) on the 2-core machine: a displaced sphere of each size (`pocketsplat \
+         generate`) baked into `.qs` and `.tg` (ρ 3, depth {}) by a child process within the \
+         budget; wall time, peak resident memory (the bake's own `VmHWM`) and output bytes. \
+         \"pieces\": baked out of core in that many pieces; \"in memory\": the bake fitted the \
+         budget. Wall times depend on what else the machine runs.\n\n{}\n![time and peak memory \
+         against triangles]({name})\n",
+        if o.out_of_core { ", all out of core" } else { "" },
+        crate::args::format_size(o.memory),
+        if o.out_of_core { " --out-of-core" } else { "" },
+        o.depth,
+        table(rows, o)
+    );
+    std::fs::write(&md, page).with_context(|| format!("cannot write {}", md.display()))?;
     std::fs::write(&png, plot(rows, o.memory)?)
         .with_context(|| format!("cannot write {}", png.display()))?;
     Ok(())
