@@ -1,10 +1,12 @@
 //! Files in and out: every whole-file read goes through [`read_file`] (a regular file, at most a
-//! limit's bytes), and every output through [`write_atomic`], so that a failure never leaves a
-//! partial file behind.
+//! limit's bytes), and every output through [`write_atomic`] or an [`AtomicFile`], so that a
+//! failure never leaves a partial file behind; temporary files and folders are [`Removed`] when
+//! dropped, and by [`remove_on_interrupt`]'s handler when the program is interrupted.
 
 use std::fs::File;
 use std::io::{Read, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
 
@@ -128,15 +130,8 @@ pub fn read_scene_text(path: &Path) -> Result<String> {
 /// # Errors
 /// When the folder is not writable or the rename fails; the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp = temp_name(path);
+    let _guard = Removed::new(tmp.clone());
     let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)
             .with_context(|| format!("cannot create {}", tmp.display()))?;
@@ -150,4 +145,154 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The temporary name an output is written under, in its folder: `.NAME.PID.tmp`.
+fn temp_name(path: &Path) -> PathBuf {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    dir.join(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Paths removed when the program is interrupted: every [`Removed`] alive.
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary file or folder, removed (a folder with everything in it) when this is dropped or
+/// the program is interrupted ([`remove_on_interrupt`]); [`Removed::keep`] keeps it (a renamed
+/// output).
+#[derive(Debug)]
+pub struct Removed {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl Removed {
+    /// Takes charge of `path` (which need not exist yet).
+    pub fn new(path: PathBuf) -> Self {
+        PENDING
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(path.clone());
+        Self { path, keep: false }
+    }
+
+    /// The path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Leaves the path where it is from now on.
+    pub fn keep(mut self) {
+        self.keep = true;
+    }
+}
+
+impl Drop for Removed {
+    fn drop(&mut self) {
+        let mut pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(i) = pending.iter().rposition(|p| *p == self.path) {
+            pending.swap_remove(i);
+        }
+        if !self.keep {
+            remove_path(&self.path);
+        }
+    }
+}
+
+fn remove_path(path: &Path) {
+    if path.is_dir() {
+        let _ = std::fs::remove_dir_all(path);
+    } else {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Installs a handler of Ctrl-C, SIGTERM and SIGHUP that removes every [`Removed`] path (spill
+/// folders, temporary outputs) and exits with status 130, so that an interrupted bake leaves
+/// nothing behind. Once per process; later calls do nothing.
+pub fn remove_on_interrupt() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The handler runs on a thread of its own, so it may take the lock and remove files.
+        let _ = ctrlc::set_handler(|| {
+            let pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+            // A worker may add a file to a folder while it is removed: try again.
+            for _ in 0..5 {
+                for p in pending.iter() {
+                    remove_path(p);
+                }
+                if pending.iter().all(|p| !p.exists()) {
+                    break;
+                }
+            }
+            eprintln!("\ninterrupted: temporary files removed");
+            std::process::exit(130);
+        });
+    });
+}
+
+/// An output file written in place at any offsets (`write_at`), under a temporary name in its
+/// folder, and renamed to its name by [`AtomicFile::commit`]; dropped before that (an error) or
+/// interrupted, it is removed.
+pub struct AtomicFile {
+    file: File,
+    tmp: Removed,
+    path: PathBuf,
+}
+
+impl AtomicFile {
+    /// Creates the temporary file for `path`, `len` bytes long (zeros, sparse where the file
+    /// system allows).
+    ///
+    /// # Errors
+    /// When the folder is not writable; the message names the file.
+    pub fn create(path: &Path, len: u64) -> Result<Self> {
+        let tmp = Removed::new(temp_name(path));
+        let file = File::create(tmp.path())
+            .with_context(|| format!("cannot create {}", tmp.path().display()))?;
+        file.set_len(len)
+            .with_context(|| format!("cannot write {}", tmp.path().display()))?;
+        Ok(Self {
+            file,
+            tmp,
+            path: path.to_owned(),
+        })
+    }
+
+    /// Writes `bytes` at `offset`; `&self`, so that threads write their parts at once.
+    ///
+    /// # Errors
+    /// When the write fails (a full disk); the message names the file.
+    pub fn write_at(&self, offset: u64, bytes: &[u8]) -> std::io::Result<()> {
+        use std::os::unix::fs::FileExt;
+        self.file.write_all_at(bytes, offset)
+    }
+
+    /// The temporary file's path (for errors).
+    pub fn tmp_path(&self) -> &Path {
+        self.tmp.path()
+    }
+
+    /// Flushes the file and renames it to its name.
+    ///
+    /// # Errors
+    /// When the flush or the rename fails; the temporary file is removed then.
+    pub fn commit(self) -> Result<()> {
+        self.file.sync_all().ok();
+        std::fs::rename(self.tmp.path(), &self.path).with_context(|| {
+            format!(
+                "cannot rename {} to {}",
+                self.tmp.path().display(),
+                self.path.display()
+            )
+        })?;
+        self.tmp.keep();
+        Ok(())
+    }
 }

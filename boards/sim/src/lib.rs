@@ -7,6 +7,7 @@ pub mod bake;
 pub mod bvh;
 pub mod demo;
 pub mod fsutil;
+pub mod generate;
 pub mod image;
 pub mod info;
 pub mod input;

@@ -10,7 +10,10 @@
 //! | `ply` | 2G | the bytes a PLY file may hold once decompressed (header, body, anything after) |
 //! | `vertices` | 16M | vertices a PLY file may declare |
 //! | `triangles` | 32M | faces a PLY file may declare |
-//! | `bake` | 1G | memory a bake is estimated to need (`--force` bakes past it) |
+//! | `bake` | 1G | memory a bake may use: past its estimate a mesh bakes out of core (`--force` bakes in memory anyway) |
+//!
+//! The command line starts from [`Limits::for_memory`] of `--memory` (default: half the machine's
+//! memory), which raises `bake`, `vertices`, `triangles` and `ply` with the budget.
 //! | `stream` | 8G | the file `render --stream` reads, as its header claims (its block table is kept whole) |
 //!
 //! The command line sets the limits once ([`set_current`]); library functions that take none read
@@ -64,6 +67,20 @@ impl Limits {
         stream: u64::MAX,
     };
 
+    /// The defaults for a bake budget of `memory` bytes (`--memory`): `bake` is the budget, and
+    /// the counts an out-of-core bake can hold within it follow (64 bytes a vertex at most, 16
+    /// a triangle, which go to disk), as does `ply`, the bytes such a file may inflate to (at
+    /// least the default 2G).
+    pub fn for_memory(memory: u64) -> Limits {
+        Limits {
+            bake: memory,
+            vertices: memory / 64,
+            triangles: memory / 16,
+            ply: memory.saturating_mul(4).max(Self::DEFAULT.ply),
+            ..Self::DEFAULT
+        }
+    }
+
     /// Every limit by name, with what it bounds.
     pub const NAMES: [(&'static str, &'static str); 7] = [
         ("file", "bytes of a file read whole (.tg, .qs, .pack, PNG)"),
@@ -71,7 +88,7 @@ impl Limits {
         ("ply", "bytes of a PLY file once decompressed"),
         ("vertices", "vertices a PLY file may declare"),
         ("triangles", "faces a PLY file may declare"),
-        ("bake", "memory a bake is estimated to need"),
+        ("bake", "memory a bake may use (--memory)"),
         (
             "stream",
             "bytes of a file read with --stream, as its header claims",

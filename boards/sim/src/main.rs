@@ -17,10 +17,15 @@ use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
     about = "Hierarchical point rendering for FPU-less handhelds"
 )]
 struct Cli {
+    /// Memory a bake may use (K, M, G = 1024, 1024², 1024³; default: half the machine's). A mesh
+    /// whose bake needs more bakes out of core, in pieces through spill files; the limits on
+    /// counts follow: vertices=MEMORY/64, triangles=MEMORY/16, ply=4×MEMORY (at least 2G).
+    #[arg(long, global = true, value_name = "SIZE", value_parser = pocketsplat_sim::args::size::<u64>(1 << 20, 1 << 46))]
+    memory: Option<u64>,
     /// Raise or lower input limits, NAME=SIZE[,NAME=SIZE...] (K, M, G = 1024, 1024², 1024³):
-    /// file=1G (a file read whole), scene=16M (a scene file), ply=2G (a PLY once decompressed),
-    /// vertices=16M and triangles=32M (declared in a PLY), bake=1G (a bake's estimated memory),
-    /// stream=8G (a file read with --stream, as its header claims).
+    /// file=1G (a file read whole), scene=16M (a scene file), ply (a PLY once decompressed),
+    /// vertices and triangles (declared in a PLY), bake (= --memory), stream=8G (a file read with
+    /// --stream, as its header claims).
     #[arg(long, global = true, value_name = "NAME=SIZE")]
     limits: Vec<String>,
     #[command(subcommand)]
@@ -32,6 +37,9 @@ enum Command {
     /// Bake a triangle mesh (PLY, ASCII or binary, optionally gzipped) into a point file, or a
     /// scene file (`.toml`, see boards/sim/scenes/) into a scene pack.
     Bake(cli::bake::BakeArgs),
+    /// Write a large test scan: a displaced sphere of about N triangles sampled as a scanner's
+    /// range grids are, as binary PLY (for measuring bakes; never commit its output).
+    Generate(cli::generate::GenerateArgs),
     /// Describe a point file (header, samples and α per level, size per leaf sample) or a scene
     /// pack (per object what is present and what was left out, and the RAM a frame needs).
     Info(cli::info::InfoArgs),
@@ -61,6 +69,7 @@ impl Command {
             Command::Migrate(a) => Some(a.input().to_path_buf()),
             Command::Render(a) => Some(a.input().to_path_buf()),
             Command::View(a) => Some(a.input().to_path_buf()),
+            Command::Generate(a) => Some(a.output().to_path_buf()),
             Command::Report { which } => which.subject(),
         }
     }
@@ -70,11 +79,15 @@ impl Command {
 /// command that does not name the file it is about gets its name in front (issue 33: every error
 /// names its file; the readers and writers name it themselves, this catches the rest).
 fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
-    let mut limits = pocketsplat_sim::limits::Limits::DEFAULT;
+    let memory = cli
+        .memory
+        .unwrap_or_else(pocketsplat_sim::bake::budget::default_budget);
+    let mut limits = pocketsplat_sim::limits::Limits::for_memory(memory);
     for l in &cli.limits {
         limits.apply(l)?;
     }
     pocketsplat_sim::limits::set_current(limits);
+    pocketsplat_sim::fsutil::remove_on_interrupt();
     let subject = cli.command.as_ref().and_then(Command::subject);
     run_command(cli.command, matches).map_err(|e| match subject {
         Some(path) if !format!("{e:#}").contains(&path.display().to_string()) => {
@@ -89,6 +102,7 @@ fn run_command(command: Option<Command>, matches: &ArgMatches) -> anyhow::Result
     match command {
         None => cli::demo::run(),
         Some(Command::Bake(args)) => cli::bake::run(&args),
+        Some(Command::Generate(args)) => cli::generate::run(&args),
         Some(Command::Info(args)) => cli::info::run(&args),
         Some(Command::Migrate(args)) => cli::migrate::run(&args),
         Some(Command::Render(args)) => {

@@ -80,10 +80,16 @@ fn gzip_bombs_stop_at_a_named_limit() {
         64,
         b"",
     );
+    // The count limits follow --memory (vertices = MEMORY/64).
+    fails(
+        d,
+        &["bake", "bomb.ply.gz", "-o", "o.tg", "--memory", "1G"],
+        &["bomb.ply.gz", "vertices=16M", "--limits vertices=SIZE"],
+    );
     fails(
         d,
         &["bake", "bomb.ply.gz", "-o", "o.tg"],
-        &["bomb.ply.gz", "vertices=16M", "--limits vertices=SIZE"],
+        &["bomb.ply.gz", "vertices=", "--limits vertices=SIZE"],
     );
     // Raised past the count: the bytes a gzip stream may inflate to cannot hold them.
     fails(
@@ -93,6 +99,8 @@ fn gzip_bombs_stop_at_a_named_limit() {
             "bomb.ply.gz",
             "-o",
             "o.tg",
+            "--memory",
+            "512M",
             "--limits",
             "vertices=2G",
         ],
@@ -301,13 +309,7 @@ fn a_bake_too_deep_is_refused_before_it_starts() {
     let err = fails(
         d,
         &["bake", "oct.ply", "-o", "o.tg", "--depth", "10"],
-        &[
-            "oct.ply",
-            "depth 10",
-            "bake=1G",
-            "--force",
-            "--limits bake=SIZE",
-        ],
+        &["oct.ply", "depth 10", "--force", "--memory"],
     );
     assert!(err.contains("samples") && err.contains("memory"), "{err}");
     fails(
@@ -315,7 +317,7 @@ fn a_bake_too_deep_is_refused_before_it_starts() {
         &[
             "bake", "oct.ply", "-o", "o.tg", "--depth", "5", "--limits", "bake=1M",
         ],
-        &["oct.ply", "bake=1M"],
+        &["oct.ply", "--memory 1.00 MB"],
     );
     succeeds(d, &["bake", "oct.ply", "-o", "o.tg", "--depth", "5"]);
     // A scene ground at depth 10.

@@ -23,6 +23,12 @@ pub(crate) fn cross(a: V3, b: V3) -> V3 {
     ]
 }
 
+/// The cross product of a triangle's edges: its normal, twice its area long (what vertex normals
+/// sum, area-weighted).
+pub fn triangle_normal(c: &[V3; 3]) -> V3 {
+    cross(sub(c[1], c[0]), sub(c[2], c[0]))
+}
+
 /// Whether triangle `t` intersects the closed axis-aligned box with centre `c` and half-size `h`
 /// (separating-axis test of Akenine-Möller 2001: 3 box axes, the triangle's normal, 9 edge crosses).
 /// Touching counts as intersecting.

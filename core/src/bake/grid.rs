@@ -6,9 +6,9 @@ use std::vec::Vec;
 
 use rayon::prelude::*;
 
-use super::geom::{at_bary, closest_on_triangle, cross, dot, sub, tri_box_overlap, V3};
+use super::cell::{corners, sample_at, Cell, Closest, Surface};
+use super::geom::{cross, dot, sub, V3};
 use super::mesh::{MeshError, TriMesh};
-use crate::normal;
 
 /// What to bake.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,71 +104,50 @@ pub type BakeProgress<'a> = &'a (dyn Fn(u64, u64) + Sync);
 /// Below this level subtrees are independent tasks.
 const PARALLEL_LEVELS: u8 = 2;
 
-/// The mesh prepared once: triangles with area, vertex normals.
-struct Prepared<'m> {
+/// A whole [`TriMesh`] as the baker's [`Surface`], with its area-weighted vertex normals.
+struct WholeMesh<'m> {
     mesh: &'m TriMesh,
-    tris: Vec<u32>,
     vertex_normals: Vec<V3>,
-    material_shift: u8,
 }
 
-impl Prepared<'_> {
-    fn corners(&self, t: u32) -> [V3; 3] {
-        self.mesh.triangles[t as usize].map(|i| self.mesh.positions[i as usize])
+impl Surface for WholeMesh<'_> {
+    fn triangle(&self, t: u32) -> [u32; 3] {
+        self.mesh.triangles[t as usize]
     }
+    fn position(&self, v: u32) -> V3 {
+        self.mesh.positions[v as usize]
+    }
+    fn vertex_normal(&self, v: u32) -> V3 {
+        self.vertex_normals[v as usize]
+    }
+    fn color(&self, v: u32) -> Option<[u8; 3]> {
+        self.mesh.colors.as_ref().map(|c| c[v as usize])
+    }
+    fn material(&self, t: u32) -> u8 {
+        self.mesh.materials.as_ref().map_or(0, |m| m[t as usize])
+    }
+}
 
-    /// The sample of a cell: the mesh point closest to its centre among the triangles that touch it,
-    /// with the interpolated area-weighted vertex normal there (§4.1 *GetSampleAt*).
-    fn sample(&self, centre: V3, tris: &[u32]) -> (u16, Option<u16>) {
-        let mut best = (f64::INFINITY, tris[0], [1.0, 0.0, 0.0]);
-        for &t in tris {
-            let c = self.corners(t);
-            let w = closest_on_triangle(centre, &c);
-            let d = sub(at_bary(&c, w), centre);
-            let d2 = dot(d, d);
-            if d2 < best.0 {
-                best = (d2, t, w);
-            }
-        }
-        let (_, t, w) = best;
-        let idx = self.mesh.triangles[t as usize];
-        let mut n = [0.0; 3];
-        for k in 0..3 {
-            let vn = self.vertex_normals[idx[k] as usize];
-            for a in 0..3 {
-                n[a] += w[k] * vn[a];
-            }
-        }
-        if dot(n, n) == 0.0 {
-            let c = self.corners(t);
-            n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-        }
-        let material = self
-            .mesh
-            .materials
-            .as_ref()
-            .map_or(0, |m| u16::from(m[t as usize]));
-        let attr = normal::encode(n) | material << self.material_shift;
-        let color = self.mesh.colors.as_ref().map(|cols| {
-            let mut rgb = [0.0f64; 3];
-            for k in 0..3 {
-                let c = cols[idx[k] as usize];
-                for a in 0..3 {
-                    rgb[a] += w[k] * f64::from(c[a]);
+/// Area-weighted vertex normals (the cross products summed in triangle order) and the triangles
+/// with area, in order: what [`bake_grid`] prepares once.
+fn prepare(mesh: &TriMesh) -> (Vec<V3>, Vec<u32>) {
+    let mut vertex_normals = vec![[0.0; 3]; mesh.positions.len()];
+    let mut tris = Vec::with_capacity(mesh.triangles.len());
+    for (t, idx) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = idx.map(|i| mesh.positions[i as usize]);
+        // The cross product's length is twice the area: summing it weights by area.
+        let n = cross(sub(b, a), sub(c, a));
+        if dot(n, n) > 0.0 {
+            tris.push(t as u32);
+            for &i in idx {
+                let v = &mut vertex_normals[i as usize];
+                for k in 0..3 {
+                    v[k] += n[k];
                 }
             }
-            crate::shade::rgb255_to_rgb565(rgb)
-        });
-        (attr, color)
+        }
     }
-}
-
-/// A cell: level, minimum corner, side.
-#[derive(Clone, Copy)]
-struct Cell {
-    level: u8,
-    min: V3,
-    side: f64,
+    (vertex_normals, tris)
 }
 
 /// Bakes a mesh into a ρ-grid.
@@ -186,80 +165,111 @@ pub fn bake_grid(
     assert!((2..=5).contains(&opts.rho), "rho must be 2..=5");
     assert!(opts.depth <= crate::tg::MAX_DEPTH, "depth too large");
     mesh.validate()?;
-    let mut vertex_normals = vec![[0.0; 3]; mesh.positions.len()];
-    let mut tris = Vec::with_capacity(mesh.triangles.len());
-    for (t, idx) in mesh.triangles.iter().enumerate() {
-        let [a, b, c] = idx.map(|i| mesh.positions[i as usize]);
-        // The cross product's length is twice the area: summing it weights by area.
-        let n = cross(sub(b, a), sub(c, a));
-        if dot(n, n) > 0.0 {
-            tris.push(t as u32);
-            for &i in idx {
-                let v = &mut vertex_normals[i as usize];
-                for k in 0..3 {
-                    v[k] += n[k];
-                }
-            }
-        }
-    }
+    let (vertex_normals, tris) = prepare(mesh);
     let material_bits = if mesh.material_count() > 1 { 3 } else { 0 };
-    let prep = Prepared {
+    let surface = WholeMesh {
         mesh,
-        tris,
         vertex_normals,
-        material_shift: normal::NORMAL_BITS as u8,
     };
-
-    // Root cube: the bounding box's largest extent, centred on the box; stored as f32, so round the
-    // corner down and the side up to f32 values that still contain the mesh.
-    let bounds = mesh.bounds_f32();
-    let (lo, hi) = (bounds[0].map(f64::from), bounds[1].map(f64::from));
-    let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
-    let mut side = f64::from(next_up_f32(extent as f32));
-    let mut origin = [0.0; 3];
-    for a in 0..3 {
-        let c = 0.5 * (lo[a] + hi[a]);
-        origin[a] = f64::from(next_down_f32((c - 0.5 * side) as f32));
-    }
-    // Rounding the corner down may leave the far faces short of the box. Grow the side to the
-    // smallest f32 that reaches them, in one step: stepping one f32 at a time takes billions of steps
-    // for a small mesh far from the origin (the corner's rounding is then much larger than the side).
-    let reach = (0..3).map(|a| hi[a] - origin[a]).fold(side, f64::max);
-    if reach > side {
-        let s = reach as f32;
-        side = f64::from(if f64::from(s) < reach { s.next_up() } else { s });
-    }
-    while (0..3).any(|a| origin[a] + side < hi[a]) {
-        side = f64::from(next_up_f32(side as f32));
-    }
-    let precise = precise_cube(mesh.bounds(), origin, side);
-    let (root_min, root_side) = precise.map_or((origin, side), |p| (p.origin, p.side));
-
+    let frame = GridFrame::new(mesh.bounds(), opts, material_bits);
     let total = u64::from(opts.rho).pow(3 * u32::from(PARALLEL_LEVELS.min(opts.depth)));
     let done = std::sync::atomic::AtomicU64::new(0);
     let ctx = Ctx {
-        prep: &prep,
+        surface: &surface,
         opts,
         progress,
         done: &done,
         total,
     };
-    let root = Cell {
-        level: 0,
-        min: root_min,
-        side: root_side,
-    };
-    let levels = ctx.build(root, &prep.tris);
-    Ok(BakedGrid {
-        rho: opts.rho,
-        material_bits,
-        bounds,
-        origin,
-        side,
-        precise,
-        levels,
-        cones: opts.rho == 3,
-    })
+    let levels = ctx.build(frame.root(), &tris);
+    Ok(frame.grid(levels))
+}
+
+/// The root cube of a bake and what its file stores beside the levels, from the bounding box of
+/// the mesh's referenced vertices: what an out-of-core bake sets up before it has any level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridFrame {
+    /// What is baked.
+    pub opts: BakeOptions,
+    /// Material bits per attribute.
+    pub material_bits: u8,
+    /// [`BakedGrid::origin`].
+    pub origin: [f64; 3],
+    /// [`BakedGrid::side`].
+    pub side: f64,
+    /// [`BakedGrid::bounds`].
+    pub bounds: [[f32; 3]; 2],
+    /// [`BakedGrid::precise`].
+    pub precise: Option<PreciseCube>,
+}
+
+impl GridFrame {
+    /// The frame of a mesh whose referenced vertices span `(lo, hi)` ([`TriMesh::bounds`]).
+    ///
+    /// # Panics
+    /// When `opts.rho` is outside 2..=5 or `opts.depth` above [`crate::tg::MAX_DEPTH`].
+    pub fn new((lo64, hi64): ([f64; 3], [f64; 3]), opts: BakeOptions, material_bits: u8) -> Self {
+        assert!((2..=5).contains(&opts.rho), "rho must be 2..=5");
+        assert!(opts.depth <= crate::tg::MAX_DEPTH, "depth too large");
+        // Root cube: the bounding box's largest extent, centred on the box; stored as f32, so round
+        // the corner down and the side up to f32 values that still contain the mesh.
+        let bounds = super::mesh::bounds_f32(lo64, hi64);
+        let (lo, hi) = (bounds[0].map(f64::from), bounds[1].map(f64::from));
+        let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+        let mut side = f64::from(next_up_f32(extent as f32));
+        let mut origin = [0.0; 3];
+        for a in 0..3 {
+            let c = 0.5 * (lo[a] + hi[a]);
+            origin[a] = f64::from(next_down_f32((c - 0.5 * side) as f32));
+        }
+        // Rounding the corner down may leave the far faces short of the box. Grow the side to the
+        // smallest f32 that reaches them, in one step: stepping one f32 at a time takes billions of
+        // steps for a small mesh far from the origin (the corner's rounding is then much larger
+        // than the side).
+        let reach = (0..3).map(|a| hi[a] - origin[a]).fold(side, f64::max);
+        if reach > side {
+            let s = reach as f32;
+            side = f64::from(if f64::from(s) < reach { s.next_up() } else { s });
+        }
+        while (0..3).any(|a| origin[a] + side < hi[a]) {
+            side = f64::from(next_up_f32(side as f32));
+        }
+        let precise = precise_cube((lo64, hi64), origin, side);
+        Self {
+            opts,
+            material_bits,
+            origin,
+            side,
+            bounds,
+            precise,
+        }
+    }
+
+    /// The root cell: on the precise cube when there is one.
+    pub fn root(&self) -> Cell {
+        let (min, side) = self
+            .precise
+            .map_or((self.origin, self.side), |p| (p.origin, p.side));
+        Cell {
+            level: 0,
+            min,
+            side,
+        }
+    }
+
+    /// The grid of these levels (0..=depth, breadth-first).
+    pub fn grid(&self, levels: Vec<BakedLevel>) -> BakedGrid {
+        BakedGrid {
+            rho: self.opts.rho,
+            material_bits: self.material_bits,
+            bounds: self.bounds,
+            origin: self.origin,
+            side: self.side,
+            precise: self.precise,
+            levels,
+            cones: self.opts.rho == 3,
+        }
+    }
 }
 
 /// The `f64` root cube of a mesh with box `(lo, hi)` when the `f32` cube `(origin, side)` has more
@@ -316,22 +326,29 @@ fn precise_cube(
     })
 }
 
-struct Ctx<'a> {
-    prep: &'a Prepared<'a>,
-    opts: BakeOptions,
-    progress: Option<BakeProgress<'a>>,
-    done: &'a std::sync::atomic::AtomicU64,
-    total: u64,
+/// The recursion of a bake over a [`Surface`]: [`bake_grid`]'s whole mesh, or one piece of an
+/// out-of-core bake ([`super::piece::bake_piece`]).
+pub(super) struct Ctx<'a, S> {
+    pub(super) surface: &'a S,
+    pub(super) opts: BakeOptions,
+    pub(super) progress: Option<BakeProgress<'a>>,
+    pub(super) done: &'a std::sync::atomic::AtomicU64,
+    pub(super) total: u64,
 }
 
-impl Ctx<'_> {
+impl<S: Surface> Ctx<'_, S> {
     /// Bakes the subtree of a non-empty cell; returns its levels (this cell's level first), each in
     /// breadth-first order — concatenating siblings' results level by level keeps that order.
-    fn build(&self, cell: Cell, tris: &[u32]) -> Vec<BakedLevel> {
+    pub(super) fn build(&self, cell: Cell, tris: &[u32]) -> Vec<BakedLevel> {
         let rho = usize::from(self.opts.rho);
-        let half = 0.5 * cell.side;
-        let centre = [cell.min[0] + half, cell.min[1] + half, cell.min[2] + half];
-        let (attr, color) = self.prep.sample(centre, tris);
+        let mut closest = Closest::new(tris[0]);
+        let centre = cell.centre();
+        for &t in tris {
+            closest.offer(centre, t, &corners(self.surface, t));
+        }
+        let (t, w) = (closest.t, closest.w);
+        let s = self.surface;
+        let (attr, color) = sample_at(s, s.triangle(t), s.material(t), w);
         let mut here = BakedLevel {
             attrs: vec![attr],
             colors: color.map(|c| vec![c]),
@@ -341,66 +358,18 @@ impl Ctx<'_> {
             return vec![here];
         }
 
-        // Distribute the triangles among the ρ³ children (exact test only where the triangle's box
-        // spans more than one child).
-        let child_side = cell.side / rho as f64;
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); rho * rho * rho];
         for &t in tris {
-            let c = self.prep.corners(t);
-            let mut range = [(0usize, 0usize); 3];
-            for a in 0..3 {
-                let lo = c[0][a].min(c[1][a]).min(c[2][a]);
-                let hi = c[0][a].max(c[1][a]).max(c[2][a]);
-                let f = |x: f64| {
-                    (((x - cell.min[a]) / child_side).floor().max(0.0) as usize).min(rho - 1)
-                };
-                range[a] = (f(lo), f(hi));
-            }
-            let single = range.iter().all(|(l, h)| l == h);
-            let mut placed = false;
-            for k in range[2].0..=range[2].1 {
-                for j in range[1].0..=range[1].1 {
-                    for i in range[0].0..=range[0].1 {
-                        let min = [
-                            cell.min[0] + i as f64 * child_side,
-                            cell.min[1] + j as f64 * child_side,
-                            cell.min[2] + k as f64 * child_side,
-                        ];
-                        let h = 0.5 * child_side;
-                        let cc = [min[0] + h, min[1] + h, min[2] + h];
-                        if single || tri_box_overlap(&c, cc, h) {
-                            lists[i + rho * (j + rho * k)].push(t);
-                            placed = true;
-                        }
-                    }
-                }
-            }
-            // A triangle that only touches this cell's boundary can miss every child once the child
-            // boxes are rounded; it still belongs to the cell, so give it the nearest child. This
-            // keeps "every interior cell has a child" true.
-            if !placed {
-                lists[range[0].0 + rho * (range[1].0 + rho * range[2].0)].push(t);
-            }
+            cell.child_slots(self.opts.rho, &corners(self.surface, t), |s| {
+                lists[s].push(t);
+            });
         }
         let mut mask = 0u128;
         let mut children = Vec::new();
         for (s, list) in lists.iter().enumerate() {
             if !list.is_empty() {
                 mask |= 1 << s;
-                let (i, j, k) = (s % rho, (s / rho) % rho, s / (rho * rho));
-                let min = [
-                    cell.min[0] + i as f64 * child_side,
-                    cell.min[1] + j as f64 * child_side,
-                    cell.min[2] + k as f64 * child_side,
-                ];
-                children.push((
-                    Cell {
-                        level: cell.level + 1,
-                        min,
-                        side: child_side,
-                    },
-                    s,
-                ));
+                children.push((cell.child(self.opts.rho, s), s));
             }
         }
         here.masks.push(mask);
@@ -429,7 +398,7 @@ impl Ctx<'_> {
 }
 
 /// Concatenates children's levels after this cell's own.
-fn merge(here: BakedLevel, sub: Vec<Vec<BakedLevel>>) -> Vec<BakedLevel> {
+pub(super) fn merge(here: BakedLevel, sub: Vec<Vec<BakedLevel>>) -> Vec<BakedLevel> {
     let depth = sub.iter().map(Vec::len).max().unwrap_or(0);
     let mut out = Vec::with_capacity(depth + 1);
     out.push(here);

@@ -197,23 +197,7 @@ impl TriMesh {
     /// half-diagonal define the views' bounding sphere, for the mesh and its bakes alike.
     pub fn bounds_f32(&self) -> [[f32; 3]; 2] {
         let (lo, hi) = self.bounds();
-        let down = |x: f64| {
-            let f = x as f32;
-            if f64::from(f) > x {
-                f.next_down()
-            } else {
-                f
-            }
-        };
-        let up = |x: f64| {
-            let f = x as f32;
-            if f64::from(f) < x {
-                f.next_up()
-            } else {
-                f
-            }
-        };
-        [lo.map(down), hi.map(up)]
+        bounds_f32(lo, hi)
     }
 
     /// Number of distinct materials used (1 when there is no material list).
@@ -230,4 +214,25 @@ impl TriMesh {
         let n = super::geom::cross(super::geom::sub(b, a), super::geom::sub(c, a));
         super::geom::dot(n, n).sqrt()
     }
+}
+
+/// The box `(lo, hi)` rounded outwards to f32 ([`TriMesh::bounds_f32`]).
+pub fn bounds_f32(lo: [f64; 3], hi: [f64; 3]) -> [[f32; 3]; 2] {
+    let down = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) > x {
+            f.next_down()
+        } else {
+            f
+        }
+    };
+    let up = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) < x {
+            f.next_up()
+        } else {
+            f
+        }
+    };
+    [lo.map(down), hi.map(up)]
 }

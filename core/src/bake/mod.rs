@@ -6,10 +6,18 @@
 // Geometry reads best with explicit axis indices (x, y, z), which this lint would rewrite.
 #![allow(clippy::needless_range_loop)]
 
+mod cell;
 pub mod cone;
 mod geom;
 mod grid;
 mod mesh;
+pub mod piece;
 
-pub use grid::{bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel, PreciseCube};
-pub use mesh::{MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};
+pub use piece::{bake_piece, stitch, CellSplit, Part};
+
+pub use cell::{corners, sample_at, Cell, Closest, Surface};
+pub use geom::triangle_normal;
+pub use grid::{
+    bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel, GridFrame, PreciseCube,
+};
+pub use mesh::{bounds_f32, MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};

@@ -6,8 +6,12 @@
 //! tri-grid; `write` bakes a mesh into a file (`bake` feature). The byte layout is below.
 #![doc = include_str!("FORMAT.md")]
 
+#[cfg(feature = "bake")]
+mod build;
 pub mod frame;
 pub mod normal;
+#[cfg(feature = "bake")]
+pub mod pieces;
 pub mod read;
 pub mod table;
 pub mod traverse;

@@ -11,18 +11,17 @@
 //!
 //! Everything is deterministic: the same mesh gives the same bytes.
 
-use rayon::prelude::*;
 use std::vec::Vec;
 
-use super::normal::{self, cone_code, cone_sin_bound};
-use super::table::{unpack, SPHERES, SPHERE_COUNT};
+use super::build::{
+    decode_root, dot, mesh_points, normal_errors, quantize, set_colors, sub, table_index, Builder,
+    Codes,
+};
+use super::normal::{self, cone_sin_bound};
 use super::{HEADER_BYTES, MAGIC, MAX_DEPTH, OPT_COLOR, OPT_COMMENT, POINTER_BYTES};
 use crate::bake::{MeshError, TriMesh};
 
-/// Build calls below which splits fall back from the midpoint to the median (bounds the depth).
-const MEDIAN_DEPTH: u32 = 32;
-/// A model of at least this many points has its root's subtrees built in parallel.
-const PARALLEL_POINTS: usize = 1 << 15;
+pub use super::build::triangle_bounding_radius;
 
 /// What to write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,380 +169,14 @@ pub struct BakedQs {
     pub color: bool,
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn len(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
-    dot(a, b).clamp(-1.0, 1.0).acos()
-}
-
-/// Radius of the smallest sphere around a triangle: the circumradius when it is acute, half the
-/// longest edge otherwise (and for degenerate triangles).
-pub fn triangle_bounding_radius(p: [[f64; 3]; 3]) -> f64 {
-    let e = [sub(p[1], p[0]), sub(p[2], p[1]), sub(p[0], p[2])];
-    let mut l2 = e.map(|v| dot(v, v));
-    l2.sort_by(f64::total_cmp);
-    let half_longest = 0.5 * l2[2].sqrt();
-    let area2 = len(cross(e[0], e[2]));
-    if l2[2] >= l2[0] + l2[1] || area2 <= 0.0 {
-        return half_longest;
-    }
-    // R = abc / (4·area) = abc / (2·|e₀ × e₂|).
-    let r = (l2[0] * l2[1] * l2[2]).sqrt() / (2.0 * area2);
-    r.max(half_longest)
-}
-
-struct Point {
-    p: [f64; 3],
-    r: f64,
-    n: [f64; 3],
-    rgb: [f64; 3],
-}
-
-/// Every 14-bit normal code decoded once: a bake encodes each node's normal against nine candidate
-/// codes and measures its cones against decoded codes, and `normal::decode` costs two `tan`s.
-struct Codes(Vec<[f64; 3]>);
-
-impl Codes {
-    fn new() -> Self {
-        Self((0..1u16 << 14).map(normal::decode).collect())
-    }
-    fn decode(&self, index: u16) -> [f64; 3] {
-        self.0[usize::from(index & 0x3FFF)]
-    }
-    fn encode(&self, n: [f64; 3]) -> u16 {
-        normal::encode_with(n, |i| self.decode(i))
-    }
-}
-
-struct Builder<'a> {
-    pts: &'a [Point],
-    codes: &'a Codes,
-    nodes: Vec<BakedNode>,
-    rgb: Vec<[f64; 3]>,
-    depth: u32,
-}
-
-impl Builder<'_> {
-    /// Splits `ids` in two non-empty parts: at the midpoint of the longest axis of their bounding
-    /// box, or at the median along it when the midpoint leaves a side empty or the tree is deep.
-    fn split(&self, ids: &mut [u32], depth: u32) -> usize {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for &i in ids.iter() {
-            let p = self.pts[i as usize].p;
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-        let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
-            0
-        } else if ext[1] >= ext[2] {
-            1
-        } else {
-            2
-        };
-        if depth < MEDIAN_DEPTH {
-            let mid = 0.5 * (lo[axis] + hi[axis]);
-            // Two-pointer partition: `< mid` first (deterministic).
-            let (mut i, mut j) = (0usize, ids.len());
-            while i < j {
-                if self.pts[ids[i] as usize].p[axis] < mid {
-                    i += 1;
-                } else {
-                    j -= 1;
-                    ids.swap(i, j);
-                }
-            }
-            if i > 0 && i < ids.len() {
-                return i;
-            }
-        }
-        let m = ids.len() / 2;
-        let pts = self.pts;
-        ids.select_nth_unstable_by(m, |&a, &b| {
-            pts[a as usize].p[axis]
-                .total_cmp(&pts[b as usize].p[axis])
-                .then(a.cmp(&b))
-        });
-        m
-    }
-
-    fn leaf(&mut self, id: u32, depth: u32) -> u32 {
-        let pt = &self.pts[id as usize];
-        let l = len(pt.n);
-        let (n, idx, theta) = if l > 0.0 {
-            let n = pt.n.map(|c| c / l);
-            let idx = self.codes.encode(n);
-            (n, idx, angle(n, self.codes.decode(idx)))
-        } else {
-            (
-                [0.0; 3],
-                self.codes.encode([0.0, 0.0, 1.0]),
-                core::f64::consts::PI,
-            )
-        };
-        self.depth = self.depth.max(depth);
-        self.push(
-            BakedNode {
-                center: pt.p,
-                radius: pt.r,
-                decoded_center: pt.p,
-                decoded_radius: pt.r,
-                sphere: 0,
-                normal_exact: n,
-                normal: idx,
-                cone_exact: theta,
-                cone: cone_code(theta),
-                color: 0,
-                children: Vec::new(),
-                subtree: 1,
-            },
-            pt.rgb,
-        )
-    }
-
-    fn push(&mut self, node: BakedNode, rgb: [f64; 3]) -> u32 {
-        self.nodes.push(node);
-        self.rgb.push(rgb);
-        (self.nodes.len() - 1) as u32
-    }
-
-    /// Builds the subtree over `ids` (at least 2 points) at tree depth `depth`; returns its node.
-    fn build(&mut self, ids: &mut [u32], depth: u32) -> u32 {
-        if ids.len() <= 4 {
-            // Four points or fewer are one group of leaves (as QSplat 1.0's maker groups them):
-            // splitting them again only adds an interior node and a pointer.
-            let children = ids.iter().map(|&i| self.leaf(i, depth + 1)).collect();
-            return self.interior(children);
-        }
-        // Two binary levels at a time: 2, 3 or 4 parts.
-        let ids_len = ids.len();
-        let m = self.split(ids, depth);
-        let (a, b) = ids.split_at_mut(m);
-        let mut parts: Vec<&mut [u32]> = Vec::with_capacity(4);
-        for half in [a, b] {
-            // A half of 3 or 4 points stays whole (one group of leaves below it); splitting it would
-            // take as many interior nodes or more. A half of 2 splits into two leaves.
-            if half.len() == 2 || half.len() > 4 {
-                let k = self.split(half, depth);
-                let (x, y) = half.split_at_mut(k);
-                parts.push(x);
-                parts.push(y);
-            } else {
-                parts.push(half);
-            }
-        }
-        let children = if depth == 0 && ids_len >= PARALLEL_POINTS {
-            // The root's 2–4 subtrees are built on other threads, each into its own node list, and
-            // then adopted: the tree (and so the file, which is laid out from the root) is the
-            // same. Only at the root, so that each node is copied once.
-            let subtrees: Vec<Builder<'_>> = parts
-                .into_par_iter()
-                .map(|part| {
-                    let mut sub = Builder {
-                        pts: self.pts,
-                        codes: self.codes,
-                        nodes: Vec::with_capacity(part.len() * 3 / 2),
-                        rgb: Vec::with_capacity(part.len() * 3 / 2),
-                        depth: 0,
-                    };
-                    sub.child(part, depth + 1);
-                    sub
-                })
-                .collect();
-            subtrees.into_iter().map(|sub| self.adopt(sub)).collect()
-        } else {
-            parts
-                .into_iter()
-                .map(|part| self.child(part, depth + 1))
-                .collect()
-        };
-        self.interior(children)
-    }
-
-    /// The node over `ids` (a leaf for one point) at tree depth `depth`.
-    fn child(&mut self, ids: &mut [u32], depth: u32) -> u32 {
-        if ids.len() == 1 {
-            self.leaf(ids[0], depth)
-        } else {
-            self.build(ids, depth)
-        }
-    }
-
-    /// Appends the nodes of `sub` (whose last node is its subtree's root); returns that root.
-    fn adopt(&mut self, sub: Builder<'_>) -> u32 {
-        let offset = self.nodes.len() as u32;
-        self.depth = self.depth.max(sub.depth);
-        self.rgb.extend(sub.rgb);
-        self.nodes.extend(sub.nodes.into_iter().map(|mut n| {
-            for c in &mut n.children {
-                *c += offset;
-            }
-            n
-        }));
-        self.nodes.len() as u32 - 1
-    }
-
-    fn interior(&mut self, children: Vec<u32>) -> u32 {
-        let k = children.len() as f64;
-        let mut c = [0.0; 3];
-        let mut nsum = [0.0; 3];
-        let mut rgb = [0.0; 3];
-        let mut subtree = 1;
-        for &i in &children {
-            let n = &self.nodes[i as usize];
-            for a in 0..3 {
-                c[a] += n.center[a] / k;
-                nsum[a] += n.normal_exact[a];
-                rgb[a] += self.rgb[i as usize][a] / k;
-            }
-            subtree += n.subtree;
-        }
-        let mut radius: f64 = 0.0;
-        for &i in &children {
-            let n = &self.nodes[i as usize];
-            radius = radius.max(len(sub(n.center, c)) + n.radius);
-        }
-        // Enclose the children despite rounding.
-        let radius = radius * (1.0 + 1e-12);
-        let l = len(nsum);
-        let (n, idx) = if l > 1e-9 {
-            let n = nsum.map(|v| v / l);
-            (n, self.codes.encode(n))
-        } else {
-            ([0.0; 3], self.codes.encode([0.0, 0.0, 1.0]))
-        };
-        let q = self.codes.decode(idx);
-        let theta = if l > 1e-9 {
-            children
-                .iter()
-                .map(|&i| {
-                    let ch = &self.nodes[i as usize];
-                    angle(q, self.codes.decode(ch.normal)) + ch.cone_exact
-                })
-                .fold(0.0, f64::max)
-                .min(core::f64::consts::PI)
-        } else {
-            core::f64::consts::PI
-        };
-        self.push(
-            BakedNode {
-                center: c,
-                radius,
-                decoded_center: c,
-                decoded_radius: radius,
-                sphere: 0,
-                normal_exact: n,
-                normal: idx,
-                cone_exact: theta,
-                cone: cone_code(theta),
-                color: 0,
-                children,
-                subtree,
-            },
-            rgb,
-        )
-    }
-}
-
-/// The `(s, x, y, z)` → table index map.
-fn table_index() -> Vec<u16> {
-    let mut map = std::vec![u16::MAX; 14 * 14 * 14 * 14];
-    for (i, &p) in SPHERES.iter().enumerate() {
-        let (s, x, y, z) = unpack(p).cell();
-        map[((usize::from(s) * 14 + usize::from(x)) * 14 + usize::from(y)) * 14 + usize::from(z)] =
-            i as u16;
-    }
-    map
-}
-
-/// The smallest table entry whose sphere encloses a child at `rel` (parent radii, relative to the
-/// parent's centre) with radius `rr`, nearest first among equals: `(index, offset, radius)`.
-fn quantize_sphere(map: &[u16], rel: [f64; 3], rr: f64) -> (u16, [f64; 3], f64) {
-    for s in 1..=13u32 {
-        let big_r = f64::from(s) / 13.0;
-        if rr > big_r {
-            continue;
-        }
-        let cell = rel.map(|v| {
-            let x = (((v + 1.0) * 13.0 - f64::from(s)) * 0.5).round();
-            x.clamp(0.0, f64::from(13 - s)) as u32
-        });
-        let q = cell.map(|x| f64::from(s + 2 * x) / 13.0 - 1.0);
-        if len(sub(rel, q)) + rr <= big_r {
-            let i = map[((s as usize * 14 + cell[0] as usize) * 14 + cell[1] as usize) * 14
-                + cell[2] as usize];
-            if i != u16::MAX {
-                return (i, q, big_r);
-            }
-        }
-    }
-    // Only rounding can get here (a child always fits its parent): the parent itself.
-    ((SPHERE_COUNT - 1) as u16, [0.0; 3], 1.0)
-}
-
-/// Rounds `x` to an `f32` no smaller than it.
-fn f32_up(x: f64) -> f32 {
-    let f = x as f32;
-    if f64::from(f) < x {
-        f.next_up()
-    } else {
-        f
-    }
-}
-
 /// Bakes `mesh` into a `.qs` file.
 ///
 /// # Errors
 /// [`QsBakeError`] for an invalid mesh, fewer than 2 usable vertices, or a file too large.
 pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeError> {
     mesh.validate()?;
-    let nv = mesh.positions.len();
-    let mut radius = std::vec![0.0f64; nv];
-    let mut nsum = std::vec![[0.0f64; 3]; nv];
-    let mut used = std::vec![false; nv];
-    for t in &mesh.triangles {
-        let p = t.map(|i| mesh.positions[i as usize]);
-        let r = triangle_bounding_radius(p);
-        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-        for &i in t {
-            let i = i as usize;
-            used[i] = true;
-            radius[i] = radius[i].max(r);
-            for k in 0..3 {
-                nsum[i][k] += n[k];
-            }
-        }
-    }
     let color = opts.colors && mesh.colors.is_some();
-    let pts: Vec<Point> = (0..nv)
-        .filter(|&i| used[i] && radius[i] > 0.0)
-        .map(|i| Point {
-            p: mesh.positions[i],
-            r: radius[i],
-            n: nsum[i],
-            rgb: mesh
-                .colors
-                .as_ref()
-                .map_or([0.0; 3], |c| c[i].map(f64::from)),
-        })
-        .collect();
+    let pts = mesh_points(mesh);
     if pts.len() < 2 {
         return Err(QsBakeError::TooFewPoints(pts.len()));
     }
@@ -562,54 +195,13 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
     }
     let depth = b.depth;
     let mut nodes = b.nodes;
-    for (n, rgb) in nodes.iter_mut().zip(&b.rgb) {
-        n.color = if color {
-            crate::shade::rgb255_to_rgb565(*rgb)
-        } else {
-            0
-        };
-    }
+    set_colors(&mut nodes, &b.rgb, color);
 
     // Quantize top-down against the decoded parents.
     let map = table_index();
-    {
-        let r = &mut nodes[root as usize];
-        let cf = r.center.map(|v| v as f32);
-        let shift = len(sub(r.center, cf.map(f64::from)));
-        r.decoded_center = cf.map(f64::from);
-        r.decoded_radius = f64::from(f32_up(r.radius + shift));
-    }
-    let (mut pos_err, mut rad_err, mut quantized) = (0.0f64, 0.0f64, 0u64);
-    let mut stack = std::vec![root];
-    while let Some(p) = stack.pop() {
-        let (pc, pr) = (
-            nodes[p as usize].decoded_center,
-            nodes[p as usize].decoded_radius,
-        );
-        for k in 0..nodes[p as usize].children.len() {
-            let ci = nodes[p as usize].children[k];
-            let ch = &mut nodes[ci as usize];
-            let rel = sub(ch.center, pc).map(|v| v / pr);
-            let rr = ch.radius / pr;
-            let (index, q, big_r) = quantize_sphere(&map, rel, rr);
-            ch.sphere = index;
-            ch.decoded_center = [0, 1, 2].map(|k| pc[k] + pr * q[k]);
-            ch.decoded_radius = pr * big_r;
-            pos_err += (0..3).map(|k| (q[k] - rel[k]).abs()).sum::<f64>() / 3.0;
-            rad_err += big_r - rr;
-            quantized += 1;
-            stack.push(ci);
-        }
-    }
-    let (mut nerr, mut nerr_max, mut nn) = (0.0f64, 0.0f64, 0u64);
-    for (i, n) in nodes.iter().enumerate() {
-        if i as u32 != root && len(n.normal_exact) > 0.0 {
-            let e = angle(n.normal_exact, codes.decode(n.normal));
-            nerr += e;
-            nerr_max = nerr_max.max(e);
-            nn += 1;
-        }
-    }
+    decode_root(&mut nodes[root as usize]);
+    let mut errors = quantize(&mut nodes, root, &map);
+    normal_errors(&nodes, Some(root), &codes, &mut errors);
 
     let (bytes, pointers) = layout(mesh, opts, &nodes, root, color, pts.len() as u32)?;
     let leaves = pts.len() as u64;
@@ -623,10 +215,10 @@ pub fn bake_qs(mesh: &TriMesh, opts: &QsBakeOptions) -> Result<BakedQs, QsBakeEr
             node_bytes,
             file_bytes: bytes.len() as u64,
             depth,
-            position_error: pos_err / quantized.max(1) as f64,
-            radius_error: rad_err / quantized.max(1) as f64,
-            normal_error: nerr / nn.max(1) as f64,
-            normal_error_max: nerr_max,
+            position_error: errors.position / errors.quantized.max(1) as f64,
+            radius_error: errors.radius / errors.quantized.max(1) as f64,
+            normal_error: errors.normal / errors.normals.max(1) as f64,
+            normal_error_max: errors.normal_max,
         },
         nodes,
         root,
@@ -692,9 +284,51 @@ fn layout(
         return Err(QsBakeError::TooLarge(tree_len));
     }
 
-    let mut out = Vec::with_capacity(tree_len as usize + 64);
+    let r = &nodes[root as usize];
+    let mut out = file_head(
+        opts,
+        mesh.bounds_f32(),
+        tree_len,
+        leaves,
+        color,
+        r,
+        r.children.len() as u32,
+    );
+    let start = out.len() - HEADER_BYTES;
+    out.reserve(tree_len as usize);
+    let mut pointers = 0u64;
+    for &p in &parents {
+        debug_assert_eq!((out.len() - start) as u64, group_at[p as usize]);
+        pointers += u64::from(has_pointer(p));
+        write_group(
+            nodes,
+            p,
+            has_pointer(p),
+            |c| group_at[c as usize],
+            color,
+            &mut out,
+        );
+    }
+    pad4(&mut out, start);
+    debug_assert_eq!((out.len() - start) as u64, tree_len);
+    Ok((out, pointers))
+}
+
+/// The bytes of a file before its tree's first group: the comment fragment with the mesh's
+/// bounding box `bounds` (when `opts.comment`) and the tree fragment's header (`tree_len` bytes
+/// from its magic on, `leaves` points, the root's decoded sphere and `root_children`).
+pub(super) fn file_head(
+    opts: &QsBakeOptions,
+    bounds: [[f32; 3]; 2],
+    tree_len: u64,
+    leaves: u32,
+    color: bool,
+    root: &BakedNode,
+    root_children: u32,
+) -> Vec<u8> {
+    let mut out = Vec::with_capacity(128);
     if opts.comment {
-        let [lo, hi] = mesh.bounds_f32();
+        let [lo, hi] = bounds;
         let text = std::format!(
             "{} bounds={},{},{},{},{},{}",
             super::BOUNDS_COMMENT_PREFIX,
@@ -713,48 +347,59 @@ fn layout(
         out.extend_from_slice(text.as_bytes());
         pad4(&mut out, 0);
     }
-    let start = out.len();
-    let r = &nodes[root as usize];
     out.extend_from_slice(&MAGIC);
     put_u32(&mut out, tree_len as u32);
     put_u32(&mut out, leaves);
     put_u32(&mut out, if color { OPT_COLOR } else { 0 });
-    for v in r.decoded_center {
+    for v in root.decoded_center {
         out.extend_from_slice(&(v as f32).to_be_bytes());
     }
-    out.extend_from_slice(&(r.decoded_radius as f32).to_be_bytes());
-    put_u32(&mut out, r.children.len() as u32);
-    let mut pointers = 0u64;
-    for &p in &parents {
-        let kids = &nodes[p as usize].children;
-        debug_assert_eq!((out.len() - start) as u64, group_at[p as usize]);
-        if has_pointer(p) {
-            pointers += 1;
-            let here = group_at[p as usize];
-            let target = kids
-                .iter()
-                .find(|&&c| is_interior(c))
-                .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at[c as usize]);
-            out.extend_from_slice(&((target - here) as i32).to_be_bytes());
-        }
-        for &c in kids {
-            let n = &nodes[c as usize];
-            let grand = n.children.iter().any(|&g| is_interior(g));
-            let rec = super::read::Node {
-                sphere: n.sphere,
-                children: n.children.len() as u8,
-                grandchildren: grand,
-                normal: n.normal,
-                cone: n.cone,
-                color: color.then_some(n.color),
-            }
-            .to_bytes();
-            out.extend_from_slice(&rec[..ns as usize]);
-        }
+    out.extend_from_slice(&(root.decoded_radius as f32).to_be_bytes());
+    put_u32(&mut out, root_children);
+    out
+}
+
+/// Appends node `p`'s group, which starts at `group_at(p)` (fragment offsets): its pointer when
+/// `pointer` (to its first child with children, or past the group when none has), then its
+/// children's records.
+pub(super) fn write_group(
+    nodes: &[BakedNode],
+    p: u32,
+    pointer: bool,
+    group_at: impl Fn(u32) -> u64,
+    color: bool,
+    out: &mut Vec<u8>,
+) {
+    let ns: u64 = if color { 6 } else { 4 };
+    let kids = &nodes[p as usize].children;
+    let is_interior = |c: u32| !nodes[c as usize].children.is_empty();
+    if pointer {
+        let here = group_at(p);
+        let target = kids
+            .iter()
+            .find(|&&c| is_interior(c))
+            .map_or(here + 4 + ns * kids.len() as u64, |&c| group_at(c));
+        out.extend_from_slice(&((target - here) as i32).to_be_bytes());
     }
-    pad4(&mut out, start);
-    debug_assert_eq!((out.len() - start) as u64, tree_len);
-    Ok((out, pointers))
+    for &c in kids {
+        let n = &nodes[c as usize];
+        let grand = n.children.iter().any(|&g| is_interior(g));
+        out.extend_from_slice(&record(n, n.children.len(), grand, color));
+    }
+}
+
+/// A node's record as the file stores it: 4 bytes, or 6 with `color`.
+pub(super) fn record(n: &BakedNode, children: usize, grandchildren: bool, color: bool) -> Vec<u8> {
+    let rec = super::read::Node {
+        sphere: n.sphere,
+        children: children as u8,
+        grandchildren,
+        normal: n.normal,
+        cone: n.cone,
+        color: color.then_some(n.color),
+    }
+    .to_bytes();
+    rec[..if color { 6 } else { 4 }].to_vec()
 }
 
 impl BakedQs {
@@ -800,6 +445,7 @@ impl BakedQs {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::qs::build::len;
     use crate::qs::read::{Group, QSplat, Tree};
 
     /// A UV sphere of radius 1 with `rings × segments` quads, coloured by position.

@@ -5,10 +5,10 @@ use std::time::Instant;
 
 use anyhow::Result;
 use pocketsplat_core::bake::BakeOptions;
-use pocketsplat_core::qs::write::QsBakeOptions;
-use pocketsplat_core::tg::write::{write_tg_as, Layout};
+use pocketsplat_core::tg::write::Layout;
 use pocketsplat_sim::args;
-use pocketsplat_sim::bake::{bake_file_within, bake_qs_file, BakeFormat};
+use pocketsplat_sim::bake::run::{bake, job, BakeJob};
+use pocketsplat_sim::bake::{BakeFormat, OocOptions};
 use pocketsplat_sim::fsutil::write_atomic;
 use pocketsplat_sim::scene::bake::{bake_scene, BakeOverrides};
 use pocketsplat_sim::{input, limits, scene};
@@ -41,9 +41,22 @@ pub struct BakeArgs {
     /// flash walks fastest, ~3.6 % fewer instructions) or v2. `pocketsplat migrate` converts.
     #[arg(long, default_value = "bricked", value_parser = pocketsplat_sim::migrate::layout)]
     layout: Layout,
-    /// Bake even when the estimate of its memory is over the `bake` limit (see --limits).
-    #[arg(long)]
+    /// Bake in memory even when the estimate of its memory is over --memory (the `bake` limit).
+    #[arg(long, conflicts_with = "out_of_core")]
     force: bool,
+    /// Bake out of core even when the mesh would fit in memory: the PLY streamed, the mesh cut
+    /// into pieces that fit --memory through spill files, the same bytes. (A bake over --memory
+    /// does so by itself.)
+    #[arg(long)]
+    out_of_core: bool,
+    /// The largest piece of an out-of-core bake, in triangles (`.tg`) or points (`.qs`); by
+    /// default as large as --memory allows. Smaller pieces take more passes over the spill files.
+    #[arg(long, value_name = "COUNT", value_parser = args::size::<u64>(1, 1 << 40))]
+    piece_size: Option<u64>,
+    /// Where an out-of-core bake's spill folder goes (default: the output's folder). It is removed
+    /// when the bake ends, fails or is interrupted.
+    #[arg(long, value_name = "DIR")]
+    spill_dir: Option<PathBuf>,
 }
 
 impl BakeArgs {
@@ -61,47 +74,26 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     if input::is_scene_file(&args.mesh) {
         return bake_scene_file(&args.mesh, &args.out, args.force);
     }
-    let (mesh, out) = (&args.mesh, &args.out);
-    if args.format == BakeFormat::QSplat {
-        let report = bake_qs_file(mesh, &QsBakeOptions::default())?;
-        write_atomic(out, &report.baked.bytes)?;
-        let s = report.baked.stats;
-        eprintln!(
-            "{}: QSplat: {} leaves, {} interior nodes, depth {}, {} bytes ({:.2} per leaf, pointers {:.1} %{}); loaded in {:.2} s, baked in {:.2} s",
-            out.display(),
-            s.leaves,
-            s.interior,
-            s.depth,
-            s.file_bytes,
-            s.bytes_per_leaf(),
-            100.0 * s.pointer_share(),
-            if report.baked.color { ", colour" } else { "" },
-            report.load.as_secs_f64(),
-            report.bake.as_secs_f64()
-        );
-        return Ok(());
-    }
-    let (rho, depth) = (args.rho, args.depth);
-    let block_log2 = args.block_size.trailing_zeros() as u8;
-    let limit = if args.force {
-        u64::MAX
-    } else {
-        limits::current().bake
+    let limits = limits::current();
+    let job = BakeJob {
+        grid: BakeOptions {
+            rho: args.rho,
+            depth: args.depth,
+        },
+        block_log2: args.block_size.trailing_zeros() as u8,
+        layout: args.layout,
+        force: args.force,
+        out_of_core: args.out_of_core,
+        ooc: OocOptions {
+            spill_dir: args.spill_dir.clone(),
+            piece_limit: args.piece_size,
+            progress: true,
+            ..OocOptions::within(limits.bake)
+        },
+        ..job(&args.mesh, &args.out, args.format, limits.bake)
     };
-    let mut report = bake_file_within(mesh, BakeOptions { rho, depth }, block_log2, true, limit)?;
-    if args.layout != Layout::Bricked {
-        report.bytes = write_tg_as(&report.grid, block_log2, args.layout)?;
-    }
-    write_atomic(out, &report.bytes)?;
-    let leaves = report.grid.levels.last().map_or(0, |l| l.attrs.len());
-    let total: usize = report.grid.levels.iter().map(|l| l.attrs.len()).sum();
-    eprintln!(
-        "{}: rho {rho}, depth {depth}: {total} samples ({leaves} leaves), {} bytes; loaded in {:.2} s, baked in {:.2} s",
-        out.display(),
-        report.bytes.len(),
-        report.load.as_secs_f64(),
-        report.bake.as_secs_f64()
-    );
+    let done = bake(&job, &limits)?;
+    eprintln!("{}", done.summary);
     Ok(())
 }
 

@@ -8,6 +8,7 @@
 
 pub mod bake;
 pub mod demo;
+pub mod generate;
 pub mod info;
 pub mod migrate;
 pub mod render;

@@ -71,6 +71,31 @@ pub enum ReportKind {
         #[arg(long, value_name = "FILE")]
         baseline: Option<PathBuf>,
     },
+    /// How bakes scale: generated scans of each size baked into .qs and .tg (a child process
+    /// each, within --memory), wall time, peak RSS and output bytes as PREFIX.csv, PREFIX.md and
+    /// PREFIX.png (scripts/bake-scale runs 1, 8, 32 and 100 M triangles).
+    BakeScale {
+        /// Output prefix, e.g. docs/bake-scale.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Triangles of each mesh, comma-separated (K, M, G suffixes).
+        #[arg(long, value_delimiter = ',', default_value = "1M,8M",
+              value_parser = args::size::<u64>(48, 1 << 36))]
+        sizes: Vec<u64>,
+        /// Depth of the .tg bakes.
+        #[arg(long, default_value_t = 7,
+              value_parser = args::int::<u8>(1, u64::from(pocketsplat_core::tg::MAX_DEPTH)))]
+        depth: u8,
+        /// Where the meshes are generated and kept (several GB for 100 M triangles).
+        #[arg(long, default_value = "bake-scale-work")]
+        work: PathBuf,
+        /// Only redraw PREFIX.md and PREFIX.png from PREFIX.csv.
+        #[arg(long)]
+        redraw: bool,
+        /// Bake every size out of core, also those that fit in memory.
+        #[arg(long)]
+        out_of_core: bool,
+    },
     /// The tri-grid paper's Tables 1, 3 and 4 side by side with ours, on the Stanford scans.
     Paper {
         /// Folder with the Stanford models (default: $POCKETSPLAT_MODELS or ../shared/models).
@@ -109,7 +134,7 @@ impl ReportKind {
             ReportKind::ErrorVsTime { scene, .. } => Some(scene.clone()),
             ReportKind::Views { mesh, .. } => mesh.clone(),
             ReportKind::Paper { models, .. } | ReportKind::Shadows { models, .. } => models.clone(),
-            ReportKind::Stability { .. } => None,
+            ReportKind::Stability { .. } | ReportKind::BakeScale { .. } => None,
         }
     }
 }
@@ -144,6 +169,32 @@ pub fn run(which: ReportKind) -> Result<()> {
             for path in report::error_vs_time::run(&scene, &out, &opts)? {
                 println!("{}", path.display());
             }
+            Ok(())
+        }
+        ReportKind::BakeScale {
+            out,
+            sizes,
+            depth,
+            work,
+            redraw,
+            out_of_core,
+        } => {
+            let o = report::bake_scale::ScaleOptions {
+                sizes,
+                memory: pocketsplat_sim::limits::current().bake,
+                depth,
+                work,
+                out,
+                out_of_core,
+            };
+            let rows = if redraw {
+                let rows = report::bake_scale::read_csv(&o.out.with_extension("csv"))?;
+                report::bake_scale::write_page(&rows, &o)?;
+                rows
+            } else {
+                report::bake_scale::run(&o, &std::env::current_exe()?)?
+            };
+            print!("{}", report::bake_scale::table(&rows, &o));
             Ok(())
         }
         ReportKind::Paper { models, quick } => {

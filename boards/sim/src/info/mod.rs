@@ -2,6 +2,7 @@
 //! ([`describe`] dispatches by the file's magic): a tri-grid's levels (`tg`), a QSplat file's
 //! fragments and nodes (`qs`), a scene pack's objects and the RAM its frames need (`pack`).
 
+mod large;
 mod pack;
 mod qs;
 mod tg;
@@ -12,9 +13,10 @@ use anyhow::{anyhow, Result};
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::tg::{TriGrid, Verify};
 
+pub use large::RESIDENT_MAX;
 pub use pack::{pack_info, PackInfo};
-pub use qs::{qs_info, QsInfo};
-pub use tg::{tg_info, LevelInfo, TgInfo};
+pub use qs::{qs_info, qs_info_of, QsInfo};
+pub use tg::{tg_info, tg_info_of, LevelInfo, TgInfo};
 
 use crate::input::{self, InputKind};
 
@@ -53,12 +55,23 @@ impl Info {
 }
 
 /// Reads the file at `path` and describes it, by its magic (a `.qs` name counts as QSplat; what
-/// is none of the three is read as a `.tg` file, whose reader then says what is wrong).
+/// is none of the three is read as a `.tg` file, whose reader then says what is wrong). A `.tg`
+/// or `.qs` file over [`RESIDENT_MAX`] bytes is read front to back in bounded memory instead of
+/// whole (`large.rs`: its blocks' CRCs or its trees' structure checked as it goes).
 ///
 /// # Errors
 /// When the file cannot be read or is not a valid point file; the message names it.
 pub fn describe(path: &Path) -> Result<Info> {
-    Ok(match input::kind(path)? {
+    let kind = input::kind(path)?;
+    let (_, len) = crate::fsutil::open_regular(path)?;
+    if len > RESIDENT_MAX {
+        match kind {
+            InputKind::QSplat => return Ok(Info::QSplat(large::qs(path, len)?)),
+            InputKind::TriGrid => return Ok(Info::TriGrid(large::tg(path, len)?)),
+            _ => {}
+        }
+    }
+    Ok(match kind {
         InputKind::Pack => {
             let bytes = crate::fsutil::read_file(path)?;
             Info::Pack(pack_info(path, &bytes)?)

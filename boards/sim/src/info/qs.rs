@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use pocketsplat_core::qs::{ByteOrder, QSplat};
+use pocketsplat_core::qs::{ByteOrder, QSplat, QsCounts};
 use serde::Serialize;
 
 /// Statistics of a `.qs` file.
@@ -47,24 +47,37 @@ pub struct QsInfo {
 
 /// Statistics of an opened `.qs` file.
 pub fn qs_info(q: &QSplat<'_>) -> QsInfo {
-    let c = *q.counts();
-    let file_bytes = q.bytes().len() as u64;
+    qs_info_of(
+        q.counts(),
+        q.bytes().len() as u64,
+        q.byte_order(),
+        q.comments()
+            .map(|t| String::from_utf8_lossy(t).into_owned())
+            .collect(),
+    )
+}
+
+/// Statistics of a `.qs` file of `file_bytes` bytes from its counts, byte order and comments.
+pub fn qs_info_of(
+    c: &QsCounts,
+    file_bytes: u64,
+    order: ByteOrder,
+    comments: Vec<String>,
+) -> QsInfo {
+    let c = *c;
     let records = c.leaves + c.interior;
     let pointer_bytes = 4 * c.pointers;
     QsInfo {
         format: "qsplat",
         file_bytes,
-        byte_order: match q.byte_order() {
+        byte_order: match order {
             ByteOrder::Big => "big",
             ByteOrder::Little => "little",
         },
         fragments: c.fragments,
         comment_fragments: c.comments,
         tree_fragments: c.trees,
-        comments: q
-            .comments()
-            .map(|t| String::from_utf8_lossy(t).into_owned())
-            .collect(),
+        comments,
         color: c.color_trees > 0,
         leaves: c.leaves,
         interior_nodes: c.interior + u64::from(c.trees),

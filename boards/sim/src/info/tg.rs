@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use pocketsplat_core::tg::TriGrid;
+use pocketsplat_core::tg::read::{Header, LevelDir};
+use pocketsplat_core::tg::{TriGrid, MAX_LEVELS};
 use serde::Serialize;
 
 /// One level of a `.tg` file.
@@ -116,21 +117,37 @@ fn stream_info(tg: &TriGrid<'_>) -> Option<StreamInfo> {
 }
 
 /// Attribute bits per sample as stored (13-bit normal + material bits, in a u16; + colour).
-fn sigma(tg: &TriGrid<'_>) -> u32 {
-    16 + if tg.header().has_color() { 16 } else { 0 }
+fn sigma(h: &Header) -> u32 {
+    16 + if h.has_color() { 16 } else { 0 }
 }
 
 /// Statistics of an opened `.tg` file.
 pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
-    let h = *tg.header();
-    let leaves = u64::from(tg.leaf_samples());
-    let total = tg.total_samples();
+    let levels: [LevelDir; MAX_LEVELS] = core::array::from_fn(|l| {
+        if l < tg.header().levels() {
+            tg.level(l as u8)
+        } else {
+            LevelDir::default()
+        }
+    });
+    TgInfo {
+        stream: stream_info(tg),
+        ..tg_info_of(tg.header(), &levels, tg.bytes().len() as u64)
+    }
+}
+
+/// Statistics of a `.tg` file of `file_bytes` bytes from its header and level directory (a file
+/// too large to read whole: what streaming it needs is not worked out, `stream` is `None`).
+pub fn tg_info_of(h: &Header, dirs: &[LevelDir; MAX_LEVELS], file_bytes: u64) -> TgInfo {
+    let h = *h;
+    let count = |d: u8| dirs[usize::from(d)].count;
+    let leaves = u64::from(count(h.depth));
+    let total: u64 = (0..=h.depth).map(|d| u64::from(count(d))).sum();
     let interior = total - leaves;
     let levels: Vec<LevelInfo> = (0..=h.depth)
         .map(|d| {
-            let samples = tg.level(d).count;
-            let alpha =
-                (d < h.depth).then(|| f64::from(tg.level(d + 1).count) / f64::from(samples));
+            let samples = count(d);
+            let alpha = (d < h.depth).then(|| f64::from(count(d + 1)) / f64::from(samples));
             LevelInfo {
                 depth: d,
                 samples,
@@ -138,10 +155,9 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
             }
         })
         .collect();
-    let file_bytes = tg.bytes().len() as u64;
     let l = leaves.max(1) as f64;
     let pointers: u64 = (0..h.depth.saturating_sub(1))
-        .map(|d| u64::from(tg.level(d).count))
+        .map(|d| u64::from(count(d)))
         .sum();
     TgInfo {
         format: "tg",
@@ -162,13 +178,13 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
             .and_then(|d| levels[usize::from(d)].alpha),
         levels,
         bytes_per_leaf: file_bytes as f64 / l,
-        structure_bits_per_leaf: (file_bytes as f64 * 8.0 - leaves as f64 * f64::from(sigma(tg)))
+        structure_bits_per_leaf: (file_bytes as f64 * 8.0 - leaves as f64 * f64::from(sigma(&h)))
             / l,
         paper_structure_bits_per_leaf: interior as f64
-            * f64::from(sigma(tg) + u32::from(h.rho).pow(3))
+            * f64::from(sigma(&h) + u32::from(h.rho).pow(3))
             / l,
         pointer_bits_per_leaf: pointers as f64 * 32.0 / l,
-        stream: stream_info(tg),
+        stream: None,
     }
 }
 

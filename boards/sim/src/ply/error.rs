@@ -125,4 +125,12 @@ pub enum PlyError {
         /// What `validate` found; it names the vertex or face.
         error: MeshError,
     },
+    /// What a [`super::MeshSink`] refused (a spill file it cannot write), in its words.
+    #[error("{file}: {what}")]
+    Sink {
+        /// The file.
+        file: String,
+        /// What went wrong.
+        what: String,
+    },
 }

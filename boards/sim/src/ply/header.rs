@@ -230,6 +230,9 @@ pub(super) struct VertexLayout {
     pub(super) has_color: bool,
     /// ASCII columns of x, y, z, when no list precedes them (to recognise `nan` and `inf`).
     pub(super) coord_columns: Option<[usize; 3]>,
+    /// Every coordinate's type is one an `f32` holds exactly (`float`, or an integer of at most
+    /// 16 bits), so that an out-of-core bake keeps positions in half the memory.
+    pub(super) exact_f32: bool,
 }
 
 impl VertexLayout {
@@ -260,10 +263,21 @@ impl VertexLayout {
             None
         };
         let mut coord_columns = Some([0; 3]);
+        let mut exact_f32 = true;
         for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
             let p = def.properties.get(name).ok_or_else(|| missing(name))?;
-            if matches!(p.data_type, PropertyType::List(..)) {
-                return Err(mistyped(name, &p.data_type, "a number"));
+            match &p.data_type {
+                PropertyType::List(..) => return Err(mistyped(name, &p.data_type, "a number")),
+                PropertyType::Scalar(t) => {
+                    exact_f32 &= matches!(
+                        t,
+                        ScalarType::Float
+                            | ScalarType::Char
+                            | ScalarType::UChar
+                            | ScalarType::Short
+                            | ScalarType::UShort
+                    );
+                }
             }
             let col = column(name);
             if let (Some(cols), Some(col)) = (coord_columns.as_mut(), col) {
@@ -296,6 +310,7 @@ impl VertexLayout {
         Ok(Self {
             has_color,
             coord_columns,
+            exact_f32,
         })
     }
 }

@@ -99,6 +99,12 @@ pub fn load_mesh(path: &Path) -> Result<TriMesh, PlyError> {
 /// As [`load_mesh`], and [`PlyError::Limit`] or [`PlyError::TooShort`] when the file declares more
 /// than the limits or its bytes allow. A folder, device or FIFO is refused ([`PlyError::Io`]).
 pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError> {
+    let (file, reader, len) = open(path)?;
+    load(&file, reader, limits, Some(len))
+}
+
+/// Opens a mesh file if it is a regular file: its name for errors, the file, its length.
+fn open(path: &Path) -> Result<(String, File, u64), PlyError> {
     let file = path.display().to_string();
     let io = |error| PlyError::Io {
         file: file.clone(),
@@ -118,7 +124,7 @@ pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError>
     }
     let reader = File::open(path).map_err(io)?;
     let len = reader.metadata().map_err(io)?.len();
-    load(&file, reader, limits, Some(len))
+    Ok((file, reader, len))
 }
 
 /// Reads a PLY mesh from any reader, compressed or not, within the limits in force; `name` stands
@@ -145,10 +151,143 @@ pub fn load_mesh_from_reader_with(
 /// `len`: the reader's length in bytes when known (a regular file).
 fn load(
     name: &str,
-    mut reader: impl Read + Send,
+    reader: impl Read + Send,
     limits: &Limits,
     len: Option<u64>,
 ) -> Result<TriMesh, PlyError> {
+    let mut sink = MeshBuilder::default();
+    read_into(name, reader, limits, len, &mut sink)?;
+    let mut mesh = sink.mesh;
+    mesh.colors = sink.colors;
+    mesh.validate().map_err(|error| PlyError::Mesh {
+        file: name.to_owned(),
+        error,
+    })?;
+    Ok(mesh)
+}
+
+/// What a PLY file's records are handed to, one at a time, in the order of the file: the
+/// in-memory [`TriMesh`] ([`load_mesh`]) or an out-of-core bake's scan, which keeps the vertices
+/// and spills the faces. Nothing is validated for the sink beyond the record's own syntax (a
+/// face is a triangle with indices that are not negative): indices past the last vertex, and the
+/// checks of [`TriMesh::validate`], are the sink's.
+pub trait MeshSink: Send {
+    /// The vertex element starts: `count` records as the header declares them, `color` when
+    /// they have `red`, `green` and `blue`, `exact_f32` when every coordinate is of a type that
+    /// an `f32` holds exactly (`float`, or an integer of at most 16 bits).
+    ///
+    /// # Errors
+    /// Whatever the sink refuses (a count over its budget), naming the file.
+    fn begin_vertices(
+        &mut self,
+        count: usize,
+        color: bool,
+        exact_f32: bool,
+    ) -> Result<(), PlyError>;
+    /// One vertex: its position and (black without colours) its colour.
+    ///
+    /// # Errors
+    /// Whatever the sink refuses, naming the file.
+    fn vertex(&mut self, position: [f64; 3], color: [u8; 3]) -> Result<(), PlyError>;
+    /// The face element starts with `count` records.
+    ///
+    /// # Errors
+    /// Whatever the sink refuses, naming the file.
+    fn begin_faces(&mut self, count: usize) -> Result<(), PlyError>;
+    /// Face `index`: a triangle's vertex indices, not checked against the vertex count.
+    ///
+    /// # Errors
+    /// Whatever the sink refuses (a spill file that cannot be written), naming the file.
+    fn face(&mut self, index: usize, triangle: [u32; 3]) -> Result<(), PlyError>;
+}
+
+/// The sink of [`load_mesh`]: every record into a [`TriMesh`].
+#[derive(Default)]
+struct MeshBuilder {
+    mesh: TriMesh,
+    colors: Option<Vec<[u8; 3]>>,
+}
+
+impl MeshSink for MeshBuilder {
+    fn begin_vertices(&mut self, count: usize, color: bool, _: bool) -> Result<(), PlyError> {
+        self.mesh.positions.reserve(count.min(MAX_RESERVE));
+        if color {
+            self.colors = Some(Vec::with_capacity(count.min(MAX_RESERVE)));
+        }
+        Ok(())
+    }
+    fn vertex(&mut self, position: [f64; 3], color: [u8; 3]) -> Result<(), PlyError> {
+        self.mesh.positions.push(position);
+        if let Some(c) = &mut self.colors {
+            c.push(color);
+        }
+        Ok(())
+    }
+    fn begin_faces(&mut self, count: usize) -> Result<(), PlyError> {
+        self.mesh.triangles.reserve(count.min(MAX_RESERVE));
+        Ok(())
+    }
+    fn face(&mut self, _: usize, triangle: [u32; 3]) -> Result<(), PlyError> {
+        self.mesh.triangles.push(triangle);
+        Ok(())
+    }
+}
+
+/// Reads a PLY file into `sink`, record by record, within `limits` (see [`load_mesh_with`]; the
+/// file is opened as it opens it, and gzip is recognised by its magic).
+///
+/// # Errors
+/// As [`load_mesh_with`], but for what [`TriMesh::validate`] checks, which is the sink's.
+pub fn read_file_into(
+    path: &Path,
+    limits: &Limits,
+    sink: &mut impl MeshSink,
+) -> Result<(), PlyError> {
+    let (name, reader, len) = open(path)?;
+    read_into(&name, reader, limits, Some(len), sink)
+}
+
+/// [`read_file_into`] with the bytes of the file counted into `read` as they are read (before
+/// decompression), for a progress bar.
+///
+/// # Errors
+/// As [`read_file_into`].
+pub fn read_file_counted(
+    path: &Path,
+    limits: &Limits,
+    sink: &mut impl MeshSink,
+    read: &(dyn Fn(u64) + Sync),
+) -> Result<(), PlyError> {
+    let (name, reader, len) = open(path)?;
+    let counted = Counted {
+        inner: reader,
+        read,
+    };
+    read_into(&name, counted, limits, Some(len), sink)
+}
+
+/// A reader that reports the bytes it passes on.
+struct Counted<'a, R> {
+    inner: R,
+    read: &'a (dyn Fn(u64) + Sync),
+}
+
+impl<R: Read> Read for Counted<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        (self.read)(n as u64);
+        Ok(n)
+    }
+}
+
+/// Any reader into `sink`, compressed or not; `len`: the reader's length in bytes when known.
+fn read_into(
+    name: &str,
+    mut reader: impl Read + Send,
+    limits: &Limits,
+    len: Option<u64>,
+    sink: &mut impl MeshSink,
+) -> Result<(), PlyError> {
     let mut magic = [0u8; 2];
     let n = read_prefix(&mut reader, &mut magic).map_err(|error| PlyError::Io {
         file: name.to_owned(),
@@ -161,7 +300,7 @@ fn load(
         let inflated = Capped::new(MultiGzDecoder::new(stream), limits.ply);
         read_ahead(inflated, |inflated| {
             let mut reader = BufReader::with_capacity(BUFFER_BYTES, inflated);
-            let mesh = read_ply(name, &mut reader, limits, None)?;
+            read_ply(name, &mut reader, limits, None, sink)?;
             // To the end of the stream: the decoder checks each member's CRC-32 and length there.
             io::copy(&mut reader, &mut io::sink()).map_err(|error| {
                 capped(name, &error).unwrap_or_else(|| PlyError::Io {
@@ -172,20 +311,25 @@ fn load(
                     ),
                 })
             })?;
-            Ok(mesh)
+            Ok(())
         })
     } else {
         if let Some(len) = len {
-            limits
-                .check("ply", "size in bytes", len)
-                .map_err(|error| PlyError::Limit {
-                    file: name.to_owned(),
-                    error,
-                })?;
+            check_size(name, limits, len)?;
         }
         let mut reader = BufReader::with_capacity(BUFFER_BYTES, Capped::new(stream, limits.ply));
-        read_ply(name, &mut reader, limits, len)
+        read_ply(name, &mut reader, limits, len, sink)
     }
+}
+
+/// A file of `len` bytes against the `ply` limit.
+fn check_size(name: &str, limits: &Limits, len: u64) -> Result<(), PlyError> {
+    limits
+        .check("ply", "size in bytes", len)
+        .map_err(|error| PlyError::Limit {
+            file: name.to_owned(),
+            error,
+        })
 }
 
 fn read_ply(
@@ -193,7 +337,8 @@ fn read_ply(
     reader: &mut impl BufRead,
     limits: &Limits,
     len: Option<u64>,
-) -> Result<TriMesh, PlyError> {
+    sink: &mut impl MeshSink,
+) -> Result<(), PlyError> {
     let (header, header_lines, header_bytes) = read_header(file, reader)?;
     let vertex = header
         .elements
@@ -206,8 +351,6 @@ fn read_ply(
     };
     check_counts(file, &header, limits, len, header_bytes)?;
 
-    let mut mesh = TriMesh::default();
-    let mut colors = Vec::new();
     let mut body = Body {
         file,
         reader,
@@ -218,34 +361,73 @@ fn read_ply(
     for def in header.elements.values() {
         match (def.name.as_str(), &vertex) {
             ("vertex", Some(layout)) => {
-                mesh.positions.reserve(def.count.min(MAX_RESERVE));
-                if layout.has_color {
-                    colors.reserve(def.count.min(MAX_RESERVE));
-                }
+                sink.begin_vertices(def.count, layout.has_color, layout.exact_f32)?;
                 body.read_records(def, layout.coord_columns, None, |_, v: VertexRecord| {
-                    mesh.positions.push(v.position);
-                    if layout.has_color {
-                        colors.push(v.color);
-                    }
-                    Ok(())
+                    sink.vertex(v.position, v.color)
                 })?;
             }
             ("face", _) => {
-                mesh.triangles.reserve(def.count.min(MAX_RESERVE));
+                sink.begin_faces(def.count)?;
                 body.read_records(def, None, face_list.as_deref(), |face, f: FaceRecord| {
-                    mesh.triangles.push(f.triangle(file, face)?);
-                    Ok(())
+                    sink.face(face, f.triangle(file, face)?)
                 })?;
             }
             _ => body.skip_records(def)?,
         }
     }
-    if vertex.as_ref().is_some_and(|layout| layout.has_color) {
-        mesh.colors = Some(colors);
-    }
-    mesh.validate().map_err(|error| PlyError::Mesh {
-        file: file.to_owned(),
+    Ok(())
+}
+
+/// What a PLY header declares, read without the body ([`read_counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeclaredCounts {
+    /// Vertices declared (0 without a vertex element).
+    pub vertices: u64,
+    /// Faces declared (0 without a face element).
+    pub faces: u64,
+    /// The vertices have colours.
+    pub color: bool,
+    /// Every coordinate fits an `f32` exactly ([`MeshSink::begin_vertices`]).
+    pub exact_f32: bool,
+}
+
+/// Reads the header of a PLY file (gzipped or not) and returns what it declares, checked against
+/// `limits` as [`load_mesh_with`] checks it, so that a bake can choose its path before it reads the
+/// body.
+///
+/// # Errors
+/// As [`load_mesh_with`] for the file and its header.
+pub fn read_counts(path: &Path, limits: &Limits) -> Result<DeclaredCounts, PlyError> {
+    let (name, mut reader, len) = open(path)?;
+    let mut magic = [0u8; 2];
+    let n = read_prefix(&mut reader, &mut magic).map_err(|error| PlyError::Io {
+        file: name.clone(),
         error,
     })?;
-    Ok(mesh)
+    let prefix = magic.get(..n).unwrap_or_default();
+    let stream = prefix.chain(reader);
+    let (header, len, header_bytes) = if prefix == GZIP_MAGIC {
+        let (h, _, bytes) = read_header(&name, &mut BufReader::new(MultiGzDecoder::new(stream)))?;
+        (h, None, bytes)
+    } else {
+        check_size(&name, limits, len)?;
+        let (h, _, bytes) = read_header(&name, &mut BufReader::new(stream))?;
+        (h, Some(len), bytes)
+    };
+    if let Some(def) = header.elements.get("face") {
+        check_face(&name, def)?;
+    }
+    check_counts(&name, &header, limits, len, header_bytes)?;
+    let vertex = header
+        .elements
+        .get("vertex")
+        .map(|def| VertexLayout::new(&name, def))
+        .transpose()?;
+    let count = |e: &str| header.elements.get(e).map_or(0, |d| d.count as u64);
+    Ok(DeclaredCounts {
+        vertices: count("vertex"),
+        faces: count("face"),
+        color: vertex.as_ref().is_some_and(|v| v.has_color),
+        exact_f32: vertex.as_ref().is_none_or(|v| v.exact_f32),
+    })
 }

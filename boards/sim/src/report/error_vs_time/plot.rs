@@ -7,7 +7,7 @@ use std::sync::Once;
 
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
+use plotters::style::FontStyle;
 
 use crate::image::encode_rgb8_png;
 
@@ -60,11 +60,15 @@ fn colour(label: &str, i: usize) -> RGBColor {
     }
 }
 
-fn register() -> Result<()> {
+/// Registers the bundled font as plotters' `sans-serif` (once; other plots call it too).
+///
+/// # Errors
+/// When the font does not parse.
+pub fn register_font() -> Result<()> {
     static ONCE: Once = Once::new();
     let mut result = Ok(());
     ONCE.call_once(|| {
-        result = register_font("sans-serif", FontStyle::Normal, FONT)
+        result = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
             .map_err(|_| anyhow!("the bundled plot font does not parse"));
     });
     result
@@ -76,7 +80,7 @@ fn register() -> Result<()> {
 /// # Errors
 /// When plotters fails to draw or the PNG cannot be encoded.
 pub fn plot_png(title: &str, x_desc: &str, curves: &[Curve]) -> Result<Vec<u8>> {
-    register()?;
+    register_font()?;
     let (w, h) = SIZE;
     let mut buf = vec![0u8; w as usize * h as usize * 3];
     draw(&mut buf, title, x_desc, curves).map_err(|e| anyhow!("plot {title:?}: {e}"))?;

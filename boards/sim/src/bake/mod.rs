@@ -1,8 +1,18 @@
-//! Baking a mesh file into a point file in memory: mesh → ρ-grid (`.tg`), with a progress bar, or
+//! Baking a mesh file into a point file: in memory (mesh → ρ-grid (`.tg`), with a progress bar, or
 //! mesh → QSplat bounding-sphere tree (`.qs`), and the estimate of what a bake will need before it
-//! starts. `pocketsplat bake` writes what these return; reports, scenes and tests bake through them.
+//! starts), or out of core within a memory budget ([`ooc_tg`], [`ooc_qs`]: the PLY streamed, the
+//! mesh cut into pieces through spill files, the same bytes). `pocketsplat bake` chooses and
+//! writes; reports, scenes and tests bake through these.
 
-use std::path::Path;
+pub mod budget;
+pub mod ooc_qs;
+pub mod ooc_tg;
+pub mod progress;
+pub mod run;
+mod scan;
+mod spill;
+
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
@@ -41,6 +51,42 @@ impl BakeFormat {
             "qs" => Some(BakeFormat::QSplat),
             _ => Self::ALL.into_iter().find(|f| f.name() == name),
         }
+    }
+}
+
+/// How an out-of-core bake runs.
+#[derive(Clone, Debug)]
+pub struct OocOptions {
+    /// Bytes of memory it may use (`--memory`).
+    pub budget: u64,
+    /// Where its spill folder goes (default: the output's folder).
+    pub spill_dir: Option<PathBuf>,
+    /// Largest piece, in triangles (`.tg`) or points (`.qs`), instead of what the budget allows
+    /// (tests cut a small mesh into many pieces this way).
+    pub piece_limit: Option<u64>,
+    /// Draw progress bars (on a terminal).
+    pub progress: bool,
+}
+
+impl OocOptions {
+    /// Within `budget` bytes, spilling beside the output, pieces as large as the budget allows.
+    pub fn within(budget: u64) -> Self {
+        Self {
+            budget,
+            spill_dir: None,
+            piece_limit: None,
+            progress: false,
+        }
+    }
+
+    /// The folder the spill folder is made in for output `out`.
+    pub fn spill_parent(&self, out: &Path) -> PathBuf {
+        self.spill_dir
+            .clone()
+            .unwrap_or_else(|| match out.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+                _ => PathBuf::from("."),
+            })
     }
 }
 
