@@ -32,7 +32,7 @@ pub struct OwnedStream {
 
 /// A size as `--cache` takes it: `NM` or `NK` (rounded up), else bytes.
 pub fn cache_arg(bytes: u64) -> String {
-    if bytes >= 1 << 20 && bytes % (1 << 20) == 0 {
+    if bytes >= 1 << 20 && bytes.is_multiple_of(1 << 20) {
         format!("{}M", bytes >> 20)
     } else if bytes >= 1024 {
         format!("{}K", bytes.div_ceil(1024))
