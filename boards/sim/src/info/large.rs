@@ -82,7 +82,13 @@ pub fn tg(path: &Path, len: u64) -> Result<TgInfo> {
             bail!("{}: block {b} fails its CRC", path.display());
         }
     }
-    Ok(tg_info_of(&h, &levels, len))
+    // What streaming needs, from the file read in blocks as a stream reads it.
+    let mut src = crate::stream::file::FileSource::open(path)
+        .with_context(|| format!("{}: cannot open", path.display()))?;
+    Ok(TgInfo {
+        stream: super::tg::stream_need(&h, &levels, &mut src),
+        ..tg_info_of(&h, &levels, len)
+    })
 }
 
 /// A `.qs` file's statistics, walked front to back.

@@ -3,6 +3,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use pocketsplat_core::stream::ChunkSource;
 use pocketsplat_core::tg::read::{Header, LevelDir};
 use pocketsplat_core::tg::{TriGrid, MAX_LEVELS};
 use serde::Serialize;
@@ -78,18 +79,42 @@ pub struct StreamInfo {
 
 /// What streaming `tg` needs (`None` before version 3).
 fn stream_info(tg: &TriGrid<'_>) -> Option<StreamInfo> {
-    use pocketsplat_core::stream::{BlockEntry, MemSource, SlotEntry, StreamError, TgStream};
-    use pocketsplat_core::tg::brick::{check_table, slice_word};
     let h = *tg.header();
+    let dirs: [LevelDir; MAX_LEVELS] = core::array::from_fn(|l| {
+        if l < h.levels() {
+            tg.level(l as u8)
+        } else {
+            LevelDir::default()
+        }
+    });
+    stream_need(
+        &h,
+        &dirs,
+        &mut pocketsplat_core::stream::MemSource::new(tg.bytes()),
+    )
+}
+
+/// What streaming the file `src` reads needs (header `h`, level directory `dirs`; `None` before
+/// version 3 or when the file cannot be opened as a stream): a file read whole or one too large
+/// for that, read in blocks (the brick table word by word, then the stream's own opening).
+pub fn stream_need<C: ChunkSource>(
+    h: &Header,
+    dirs: &[LevelDir; MAX_LEVELS],
+    src: &mut C,
+) -> Option<StreamInfo> {
+    use pocketsplat_core::stream::{BlockEntry, SlotEntry, StreamError, TgStream};
+    use pocketsplat_core::tg::brick::check_table;
+    let h = *h;
     if h.version < pocketsplat_core::tg::VERSION_BRICKS {
         return None;
     }
-    let mut dirs = [pocketsplat_core::tg::LevelDir::default(); pocketsplat_core::tg::MAX_LEVELS];
-    for (l, d) in dirs.iter_mut().enumerate().take(h.levels()) {
-        *d = tg.level(l as u8);
-    }
     let largest_brick_blocks = if h.bricked() {
-        check_table(&h, &dirs, &mut |off, n| slice_word(tg.bytes(), off, n)).map_or(0, |s| s.brick)
+        let mut word = |off: u64, n: usize| {
+            let mut w = [0u8; 16];
+            src.read_at(off, w.get_mut(..n)?).ok()?;
+            Some(u128::from_le_bytes(w))
+        };
+        check_table(&h, dirs, &mut word).map_or(0, |s| s.brick)
     } else {
         0
     };
@@ -102,8 +127,7 @@ fn stream_info(tg: &TriGrid<'_>) -> Option<StreamInfo> {
         filled(SlotEntry::EMPTY, slots).ok()?,
     );
     let mut blocks = filled(BlockEntry::EMPTY, h.blocks as usize).ok()?;
-    let mut src = MemSource::new(tg.bytes());
-    let needed = match TgStream::open(&mut src, &mut data, &mut slot_mem, &mut blocks) {
+    let needed = match TgStream::open(src, &mut data, &mut slot_mem, &mut blocks) {
         Ok(s) => s.cache_need(),
         Err(StreamError::CacheTooSmall { needed, .. }) => needed,
         Err(_) => return None,
@@ -136,8 +160,8 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
     }
 }
 
-/// Statistics of a `.tg` file of `file_bytes` bytes from its header and level directory (a file
-/// too large to read whole: what streaming it needs is not worked out, `stream` is `None`).
+/// Statistics of a `.tg` file of `file_bytes` bytes from its header and level directory (`stream`
+/// left `None`: the caller works it out from the file, [`stream_need`]).
 pub fn tg_info_of(h: &Header, dirs: &[LevelDir; MAX_LEVELS], file_bytes: u64) -> TgInfo {
     let h = *h;
     let count = |d: u8| dirs[usize::from(d)].count;
