@@ -495,9 +495,17 @@ fn memory_a_file_asks_for_is_an_error_when_not_to_be_had() {
     f.set_len(3 << 30).unwrap();
     drop(f);
     let bin = env!("CARGO_BIN_EXE_pocketsplat");
-    for args in [
-        "render big.tg -o out.png --limits file=8G",
-        "info big.tg --limits file=8G",
+    // `render` reads it whole; `info` reads a file this large front to back (issue 32) and so
+    // needs no such memory: its header is what it refuses, by name.
+    for (args, expected) in [
+        (
+            "render big.tg -o out.png --limits file=8G",
+            ["cannot read big.tg", "bytes of memory are not to be had"],
+        ),
+        (
+            "info big.tg --limits file=8G",
+            ["big.tg: block size", "out of range"],
+        ),
     ] {
         let mut c = Command::new("sh");
         c.arg("-c")
@@ -505,12 +513,7 @@ fn memory_a_file_asks_for_is_an_error_when_not_to_be_had() {
             .current_dir(d)
             .env("RUST_BACKTRACE", "1");
         let a: Vec<&str> = args.split(' ').collect();
-        common::fails_with(
-            &mut c,
-            d,
-            &a,
-            &["cannot read big.tg", "bytes of memory are not to be had"],
-        );
+        common::fails_with(&mut c, d, &a, &expected);
     }
     // migrate: the rewrite's memory is estimated first, against `bake`.
     std::fs::write(d.join("oct.ply"), OCTAHEDRON).unwrap();

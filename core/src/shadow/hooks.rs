@@ -86,6 +86,16 @@ impl LightFrame {
         map.fill(u, v, eu, ev, self.depth16::<POINT>(p[2]));
     }
 
+    /// Fills the one texel under the centre of a cell at the stop level (directional light): such
+    /// a cell is smaller than a texel, so its centre's texel is the one it covers most, and the
+    /// general footprint (up to 2×2, 60 instructions) both cost a quarter of a one-pass frame and
+    /// spread its depth onto texels a neighbour's sample is tested in (bunny std 1 px: 26.81 dB
+    /// either way).
+    #[inline(always)]
+    pub(super) fn cast_centre(&self, map: &mut ShadowMap<'_>, p: LightPos) {
+        map.fill(p[0], p[1], 0, 0, self.depth16::<false>(p[2]));
+    }
+
     #[inline(always)]
     pub(super) fn step(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
         let d = self.disp[level][slot & 31];
@@ -119,7 +129,7 @@ impl OnePass<'_, '_, '_> {
             let s = m.trailing_zeros() as usize;
             m &= m - 1;
             let cp = self.light.step(p, level + 1, s);
-            self.light.cast::<false>(self.map, level + 1, cp);
+            self.light.cast_centre(self.map, cp);
         }
     }
 }
