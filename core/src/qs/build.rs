@@ -8,8 +8,36 @@ use std::vec::Vec;
 
 use super::normal::{self, cone_code};
 use super::table::{unpack, SPHERES, SPHERE_COUNT};
-use super::write::BakedNode;
 use crate::bake::TriMesh;
+
+/// One node of the baked tree: exact values, and what was stored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedNode {
+    /// Exact centre, model units.
+    pub center: [f64; 3],
+    /// Exact radius.
+    pub radius: f64,
+    /// The centre a reader decodes.
+    pub decoded_center: [f64; 3],
+    /// The radius a reader decodes.
+    pub decoded_radius: f64,
+    /// Table index (unused for the root, whose sphere is in the header).
+    pub sphere: u16,
+    /// Exact unit normal (zero when undefined).
+    pub normal_exact: [f64; 3],
+    /// 14-bit normal index.
+    pub normal: u16,
+    /// Exact cone half-angle around the decoded normal, radians (π when undefined).
+    pub cone_exact: f64,
+    /// 2-bit cone code.
+    pub cone: u8,
+    /// RGB565 colour (0 without colours).
+    pub color: u16,
+    /// Children (indices into [`BakedQs::nodes`](super::write::BakedQs::nodes)), 2–4, or none for a leaf.
+    pub children: Vec<u32>,
+    /// Nodes in this subtree, itself included.
+    pub subtree: u32,
+}
 
 /// Build calls below which splits fall back from the midpoint to the median (bounds the depth).
 const MEDIAN_DEPTH: u32 = 32;

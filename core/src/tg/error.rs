@@ -40,8 +40,8 @@ pub enum TgError {
         offset: u16,
     },
     /// A number of the precise root cube or bounds is outside the magnitudes the renderer draws:
-    /// those of the `f32` cube, [`PRECISE_MIN_SIDE`](super::read::PRECISE_MIN_SIDE) to
-    /// [`PRECISE_MAX`](super::read::PRECISE_MAX) (a side near 1e−300 drew an empty frame, one near
+    /// those of the `f32` cube, [`PRECISE_MIN_SIDE`](super::PRECISE_MIN_SIDE) to
+    /// [`PRECISE_MAX`](super::PRECISE_MAX) (a side near 1e−300 drew an empty frame, one near
     /// 1e300 overflowed the camera).
     PreciseOutOfRange {
         /// Byte offset of the offending `f64` in the header.
@@ -161,8 +161,8 @@ impl core::fmt::Display for TgError {
                 "header field at byte {offset} (precise root cube or bounds, f64): outside what \
                  rendering draws (the f32 cube's range: a side of at least {:e}, every number at \
                  most {:e} in size)",
-                super::read::PRECISE_MIN_SIDE,
-                super::read::PRECISE_MAX
+                super::PRECISE_MIN_SIDE,
+                super::PRECISE_MAX
             ),
             TgError::ReservedNotZero { offset } => {
                 write!(f, "reserved header byte {offset} is not 0")

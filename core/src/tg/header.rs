@@ -25,12 +25,7 @@ pub const ENTRY_HEAD: usize = 8;
 
 /// Largest `|corner coordinate| / side` of a root cube (2^32).
 pub const MAX_CORNER_SIDES: f64 = 4_294_967_296.0;
-/// Smallest side of the precise (`f64`) root cube: the smallest positive `f32`, the `f32` cube's
-/// own floor. The renderer's set-up squares and multiplies distances in `f64`; within the `f32`
-/// range they neither underflow nor overflow (a side near 1e−300 drew an empty frame).
-pub const PRECISE_MIN_SIDE: f64 = 1.401_298_464_324_817e-45;
-/// Largest magnitude of a number of the precise root cube or bounds: the largest `f32`.
-pub const PRECISE_MAX: f64 = 3.402_823_466_385_288_6e38;
+pub use super::{PRECISE_MAX, PRECISE_MIN_SIDE};
 
 /// The fixed fields of a `.tg` header.
 #[derive(Clone, Copy, Debug, PartialEq)]

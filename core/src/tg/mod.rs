@@ -29,6 +29,12 @@ pub const MAGIC: [u8; 4] = crate::format::TG_MAGIC;
 pub const VERSION: u16 = 3;
 /// The first version with bricks (and the brick fields of the header).
 pub const VERSION_BRICKS: u16 = 3;
+/// Smallest side of the precise (`f64`) root cube: the smallest positive `f32`, the `f32` cube's
+/// own floor. The renderer's set-up squares and multiplies distances in `f64`; within the `f32`
+/// range they neither underflow nor overflow (a side near 1e−300 drew an empty frame).
+pub const PRECISE_MIN_SIDE: f64 = 1.401_298_464_324_817e-45;
+/// Largest magnitude of a number of the precise root cube or bounds: the largest `f32`.
+pub const PRECISE_MAX: f64 = 3.402_823_466_385_288_6e38;
 /// Deepest supported grid (levels 0..=MAX_DEPTH).
 pub const MAX_DEPTH: u8 = 10;
 /// Number of level directory entries a reader keeps.
