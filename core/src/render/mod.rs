@@ -410,7 +410,8 @@ fn draw<P: DepthTarget, W: Walk, L: Layer, const M: usize>(
         stats,
         table_rebuilt,
         shadows: options.shadows,
-        ..Drawn::default()
+        #[cfg(feature = "scene")]
+        scene: None,
     }
 }
 
