@@ -3,7 +3,7 @@
 //! between a format's traversal and the pipeline ([`Walk`]).
 //!
 //! This is the ground floor of the renderer: the formats (`tg`, `qs`), shadows, streams and
-//! scenes build on it, and the facade ([`crate::render`]) puts them together. Nothing here
+//! scenes build on it, and the facade ([`crate::render`](mod@crate::render)) puts them together. Nothing here
 //! imports from a format or from the facade (docs/ARCHITECTURE.md "Layout").
 
 use core::fmt;
@@ -98,7 +98,7 @@ impl fmt::Display for FrameError {
 }
 
 /// A frame set up for a camera and ready to walk: a format's traversal with its per-frame tables
-/// (and its shadow hooks, its stream, its scene's objects). The pipeline ([`crate::render`]) runs
+/// (and its shadow hooks, its stream, its scene's objects). The pipeline ([`crate::render()`]) runs
 /// every format through this one call, into the shaded raster or a caller's sink in front of it.
 pub trait Walk {
     /// Walks the model into `sink`; returns what the walk counted.

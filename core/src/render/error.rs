@@ -65,7 +65,7 @@ pub enum RenderError {
     /// The format's per-frame tables ([`FrameError`]: a bad camera or cutoff, ρ above 3).
     Frame(FrameError),
     /// Shadows asked of a model that has none (QSplat), of a build without the `shadows` feature,
-    /// or of a target without a shadow map ([`Target::with_shadows`]).
+    /// or of a target without a shadow map ([`Target::with_shadows`](super::Target::with_shadows)).
     NoShadows(FileFormat, ShadowMode),
     /// A shadow map smaller than the options' side² (`need` depths, `given`), or a side the light
     /// cannot use.

@@ -52,7 +52,7 @@ impl<'a> Model<'a> {
     }
 
     /// [`Model::open`] with `verify` saying how much of a tri-grid (or a pack's) to check: a
-    /// firmware may trust the flash it was written to ([`Verify::Structure`]).
+    /// firmware may trust the flash it was written to ([`Verify::Structure`](crate::tg::Verify::Structure)).
     ///
     /// # Errors
     /// As [`Model::open`].

@@ -12,7 +12,7 @@ use crate::tg::TgFrame;
 
 /// A frame of a tri-grid streamed through a block cache ([`TgStream::render`]: it draws what is
 /// resident and queues what is missing, [`TgStream::serve`] reads it), through the same camera,
-/// shading table, clear and raster as [`render`]. `pass` draws the next pass of a refined frame
+/// shading table, clear and raster as [`render`](super::render()). `pass` draws the next pass of a refined frame
 /// instead ([`TgStream::render_pass`]): the pixels are cleared only for the first pass (which
 /// also starts the refined frame), so that the passes add up to the resident frame. Without
 /// shadows: the streamed walk takes no light pass.

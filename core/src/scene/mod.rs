@@ -77,7 +77,7 @@ pub enum Kind {
     /// A `.tg` file (tri-grid or octree).
     TriGrid = 1,
     /// A `.qs` file (QSplat bounding-sphere tree). Drawn only by builds with the `qsplat` feature;
-    /// never shadowed and casts nothing ([`render`]).
+    /// never shadowed and casts nothing ([`render`](crate::render::render())).
     QSplat = 2,
 }
 

@@ -165,7 +165,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
         self.casts(level, p);
         shadowed
     }
-    /// Fills at once only coarser than the light's level of detail `S` ([`OnePass::fills_now`]).
+    /// Fills at once only coarser than the light's level of detail `S` (`OnePass::fills_now`).
     /// A cell at `S` is at most a texel in the map: its parent fills its footprint, and its
     /// siblings', after all of them have been tested ([`ShadowHooks::descended`]), from its mask
     /// (the light pass of two-pass shadows fills at that level too). Testing before the parent

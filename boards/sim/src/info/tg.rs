@@ -161,7 +161,7 @@ pub fn tg_info(tg: &TriGrid<'_>) -> TgInfo {
 }
 
 /// Statistics of a `.tg` file of `file_bytes` bytes from its header and level directory (`stream`
-/// left `None`: the caller works it out from the file, [`stream_need`]).
+/// left `None`: the caller works it out from the file, `stream_need`).
 pub fn tg_info_of(h: &Header, dirs: &[LevelDir; MAX_LEVELS], file_bytes: u64) -> TgInfo {
     let h = *h;
     let count = |d: u8| dirs[usize::from(d)].count;
