@@ -134,3 +134,24 @@ impl<'a> Model<'a> {
         each_format!(self, m => m.draw(camera, options, target, layer, mark))
     }
 }
+
+#[cfg(feature = "trigrid")]
+impl<'a> From<crate::tg::TriGrid<'a>> for Model<'a> {
+    fn from(grid: crate::tg::TriGrid<'a>) -> Self {
+        Model::TriGrid(grid)
+    }
+}
+
+#[cfg(feature = "qsplat")]
+impl<'a> From<crate::qs::QSplat<'a>> for Model<'a> {
+    fn from(file: crate::qs::QSplat<'a>) -> Self {
+        Model::QSplat(file)
+    }
+}
+
+#[cfg(feature = "scene")]
+impl<'a> From<crate::scene::Scene<'a>> for Model<'a> {
+    fn from(scene: crate::scene::Scene<'a>) -> Self {
+        Model::Scene(scene)
+    }
+}
