@@ -11,16 +11,29 @@ use std::vec::Vec;
 
 const EXAMPLE: &[u8] = include_bytes!("../../examples/data/trefoil.tg");
 
-/// A display of `W` × `H` that keeps its pixels.
-struct Image<const W: usize, const H: usize>(Vec<u16>);
+/// A display that keeps its pixels, sized at run time: one display type for every size, so the
+/// tests instantiate the pipeline once for it (each target type is a copy of every walk).
+struct Image {
+    width: usize,
+    pixels: Vec<u16>,
+}
 
-impl<const W: usize, const H: usize> OriginDimensions for Image<W, H> {
-    fn size(&self) -> Size {
-        Size::new(W as u32, H as u32)
+impl Image {
+    fn new(width: usize, height: usize) -> Self {
+        Image {
+            width,
+            pixels: vec![0; width * height],
+        }
     }
 }
 
-impl<const W: usize, const H: usize> DrawTarget for Image<W, H> {
+impl OriginDimensions for Image {
+    fn size(&self) -> Size {
+        Size::new(self.width as u32, (self.pixels.len() / self.width) as u32)
+    }
+}
+
+impl DrawTarget for Image {
     type Color = Rgb565;
     type Error = core::convert::Infallible;
     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(
@@ -28,13 +41,28 @@ impl<const W: usize, const H: usize> DrawTarget for Image<W, H> {
         pixels: I,
     ) -> Result<(), Self::Error> {
         for Pixel(p, c) in pixels {
-            self.0[p.y as usize * W + p.x as usize] = RawU16::from(c).into_inner();
+            self.pixels[p.y as usize * self.width + p.x as usize] = RawU16::from(c).into_inner();
         }
         Ok(())
     }
 }
 
 use embedded_graphics_core::pixelcolor::Rgb565;
+
+/// The frame of the example model at `view` through a `width` × `height` display.
+fn display(width: usize, height: usize, view: View, options: &RenderOptions) -> Vec<u16> {
+    let model = Model::open(EXAMPLE).unwrap();
+    let camera = model.orbit(view);
+    let mut table = Box::new(ShadingTable::<1>::new());
+    let mut image = Image::new(width, height);
+    let mut depth = vec![0u16; width * height];
+    let mut target = Target::new(
+        DisplayTarget::new(&mut image, &mut depth).unwrap(),
+        &mut table,
+    );
+    render(&model, &camera, options, &mut target).unwrap();
+    image.pixels
+}
 
 /// The frame of the example model at `view` in a `W` × `H` framebuffer and through a display.
 fn both<const W: usize, const H: usize>(
@@ -47,14 +75,7 @@ fn both<const W: usize, const H: usize>(
     let (mut color, mut depth) = (Box::new([[0u16; W]; H]), Box::new([[0u16; W]; H]));
     let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
     render(&model, &camera, options, &mut target).unwrap();
-    let mut image = Image::<W, H>(vec![0; W * H]);
-    let mut depth = vec![0u16; W * H];
-    let mut target = Target::new(
-        DisplayTarget::new(&mut image, &mut depth).unwrap(),
-        &mut table,
-    );
-    render(&model, &camera, options, &mut target).unwrap();
-    (color.as_flattened().to_vec(), image.0)
+    (color.as_flattened().to_vec(), display(W, H, view, options))
 }
 
 #[test]
@@ -64,8 +85,6 @@ fn a_display_and_a_framebuffer_get_the_same_pixels_at_any_size() {
         let (fb, display) = both::<240, 320>(view, &options);
         assert_eq!(fb, display);
         assert!(fb.iter().filter(|&&p| p != 0).count() > 5000);
-        let (fb, display) = both::<128, 160>(view, &options);
-        assert_eq!(fb, display);
         let (fb, display) = both::<320, 240>(
             view,
             &RenderOptions {
@@ -91,9 +110,9 @@ fn the_projection_follows_the_target_size() {
         (rows[0], *rows.last().unwrap())
     };
     let view = View::new(0.0, 0.0, 3.0);
-    let (portrait, _) = both::<240, 320>(view, &RenderOptions::default());
-    let (half, _) = both::<120, 160>(view, &RenderOptions::default());
-    let (landscape, _) = both::<320, 240>(view, &RenderOptions::default());
+    let portrait = display(240, 320, view, &RenderOptions::default());
+    let half = display(120, 160, view, &RenderOptions::default());
+    let landscape = display(320, 240, view, &RenderOptions::default());
     let (p0, p1) = rows_covered(&portrait, 240);
     let (h0, h1) = rows_covered(&half, 120);
     let (l0, l1) = rows_covered(&landscape, 320);
@@ -148,8 +167,14 @@ fn shadows_need_a_map_and_a_bad_cutoff_is_an_error() {
     let model = Model::open(EXAMPLE).unwrap();
     let camera = model.orbit(View::new(30.0, 20.0, 2.5));
     let mut table = Box::new(ShadingTable::<1>::new());
-    let (mut color, mut depth) = (Box::new([[0u16; 96]; 64]), Box::new([[0u16; 96]; 64]));
-    let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
+    // 96 × 64, the smallest panel the project names, through a display (one target type for
+    // every size the tests draw at).
+    let mut image = Image::new(96, 64);
+    let mut depth = vec![0u16; 96 * 64];
+    let mut target = Target::new(
+        DisplayTarget::new(&mut image, &mut depth).unwrap(),
+        &mut table,
+    );
     let shadowed = RenderOptions {
         shadows: ShadowMode::OnePass,
         ..RenderOptions::default()
@@ -166,7 +191,8 @@ fn shadows_need_a_map_and_a_bad_cutoff_is_an_error() {
             "{cutoff_px}"
         );
     }
-    // 96 × 64, the smallest panel the project names, draws.
+    // It draws.
     render(&model, &camera, &RenderOptions::default(), &mut target).unwrap();
-    assert!(color.as_flattened().iter().any(|&p| p != 0));
+    drop(target);
+    assert!(image.pixels.iter().any(|&p| p != 0));
 }
