@@ -61,6 +61,12 @@ pub mod stream;
 #[cfg(feature = "trigrid")]
 pub mod tg;
 
+#[cfg(feature = "bake")]
+pub mod bake;
+
+pub use camera::{Camera, View, Viewport};
+pub use render::{render, Model, RenderOptions, Target};
+
 /// Helpers of the unit tests.
 #[cfg(test)]
 pub(crate) mod testing {
@@ -73,9 +79,3 @@ pub(crate) mod testing {
         }
     }
 }
-
-#[cfg(feature = "bake")]
-pub mod bake;
-
-pub use camera::{Camera, View, Viewport};
-pub use render::{render, Model, RenderOptions, Target};

@@ -193,6 +193,5 @@ fn shadows_need_a_map_and_a_bad_cutoff_is_an_error() {
     }
     // It draws.
     render(&model, &camera, &RenderOptions::default(), &mut target).unwrap();
-    drop(target);
     assert!(image.pixels.iter().any(|&p| p != 0));
 }
