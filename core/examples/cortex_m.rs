@@ -3,7 +3,8 @@
 //!
 //! The display here is a stand-in for your driver (an ST7735 128 × 160 panel, say, behind
 //! `mipidsi` or `st7735-lcd`): any embedded-graphics `DrawTarget<Color = Rgb565>` will do. This one
-//! counts the pixels it would send over SPI and checksums them, so that a run shows what was drawn.
+//! is the crate's [`TestPanel`], which counts the pixels it would be sent over SPI and checksums
+//! them, so that a run shows what was drawn.
 //!
 //! Build and run it on QEMU's Cortex-M3 board (the workspace's runner, `.cargo/config.toml`):
 //!
@@ -15,17 +16,10 @@
 //! std program and prints the same lines: no float per node, the same pixels on both.
 #![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
 
-use core::convert::Infallible;
-
-use embedded_graphics_core::pixelcolor::raw::RawU16;
-use embedded_graphics_core::pixelcolor::Rgb565;
-use embedded_graphics_core::prelude::*;
-use pocketsplat_core::crc::Crc32;
-use pocketsplat_core::raster::DisplayTarget;
-use pocketsplat_core::render::{ModelError, RenderError};
-use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_core::tg::Verify;
-use pocketsplat_core::{render, Model, RenderOptions, Target, View};
+use pocketsplat_core::{
+    render, DisplayTarget, Model, ModelError, RenderError, RenderOptions, ShadingTable, Target,
+    TestPanel, Verify, View,
+};
 
 /// The panel's size: a common 1.8" ST7735 TFT, portrait.
 const WIDTH: usize = 128;
@@ -34,36 +28,6 @@ const HEIGHT: usize = 160;
 /// The model, baked on the desktop (`pocketsplat bake mesh.ply -o model.tg`) and linked into
 /// flash, where it is read in place.
 static MODEL: &[u8] = include_bytes!("data/trefoil.tg");
-
-/// A stand-in display driver: counts and checksums the pixels it would send.
-struct Panel {
-    pixels: u32,
-    crc: Crc32,
-}
-
-impl OriginDimensions for Panel {
-    fn size(&self) -> Size {
-        Size::new(WIDTH as u32, HEIGHT as u32)
-    }
-}
-
-impl DrawTarget for Panel {
-    type Color = Rgb565;
-    type Error = Infallible;
-
-    fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(
-        &mut self,
-        pixels: I,
-    ) -> Result<(), Infallible> {
-        for Pixel(at, color) in pixels {
-            // What an SPI driver would send: the window, then the colour.
-            self.pixels += 1;
-            self.crc
-                .update_u16_le(&[at.x as u16, at.y as u16, RawU16::from(color).into_inner()]);
-        }
-        Ok(())
-    }
-}
 
 /// Why the example stops.
 #[derive(Debug)]
@@ -85,10 +49,7 @@ impl core::fmt::Display for Error {
 fn draw(depth: &mut [u16], table: &mut ShadingTable<1>) -> Result<(u32, u32), Error> {
     // Trusted flash: the header and the structure are checked, not every block's CRC.
     let model = Model::open_with(MODEL, Verify::Structure).map_err(Error::Model)?;
-    let mut panel = Panel {
-        pixels: 0,
-        crc: Crc32::new(),
-    };
+    let mut panel = TestPanel::new(WIDTH as u32, HEIGHT as u32);
     // A coarser cutoff than the desktop's 1 px: four times fewer splats, and what a moving camera
     // would use (`lod::CutoffController` adapts it to a frame rate).
     let options = RenderOptions {
@@ -101,14 +62,14 @@ fn draw(depth: &mut [u16], table: &mut ShadingTable<1>) -> Result<(u32, u32), Er
         let mut target = Target::new(pixels, &mut *table);
         render(&model, &camera, &options, &mut target).map_err(Error::Render)?;
     }
-    Ok((panel.pixels, panel.crc.finish()))
+    Ok((panel.sent(), panel.crc()))
 }
 
 #[cfg(all(target_arch = "arm", target_os = "none"))]
 mod device {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
-    use pocketsplat_core::shade::ShadingTable;
+    use pocketsplat_core::ShadingTable;
 
     #[entry]
     fn main() -> ! {

@@ -13,6 +13,7 @@ pub fn crc32(bytes: &[u8]) -> u32 {
 }
 
 /// Incremental CRC-32, for data that arrives in pieces (framebuffer rows, blocks).
+#[derive(Clone)]
 pub struct Crc32 {
     digest: crc::Digest<'static, u32>,
 }

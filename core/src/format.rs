@@ -2,7 +2,7 @@
 //! format's module re-exports its own, and its reader checks it again).
 //!
 //! ```
-//! use pocketsplat_core::format::FileFormat;
+//! use pocketsplat_core::FileFormat;
 //! assert_eq!(FileFormat::sniff(b"PSTG\x02\x00"), Some(FileFormat::TriGrid));
 //! assert_eq!(FileFormat::sniff(b"QSplat11"), Some(FileFormat::QSplat));
 //! assert_eq!(FileFormat::sniff(b"ply\n"), None);

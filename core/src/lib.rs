@@ -3,19 +3,37 @@
 //! Everything that runs on the device: the hierarchical point formats (tri-grids and QSplat),
 //! their integer-only traversal, the raster and the shading tables. `no_std`, no heap.
 //!
-//! **One way in**: [`Model::open`] a file (by its magic), orbit a [`Camera`] about it, and
-//! [`render()`] it into a [`Target`]: any embedded-graphics display with a depth buffer you own
-//! ([`raster::DisplayTarget`]) or the crate's [`raster::Framebuffer`], of any size. The [`render`
-//! module](mod@render) shows it whole; `examples/cortex_m.rs` is a firmware that does it.
+//! ## One way in
 //!
-//! The writers live next to the readers so that each byte layout is defined in one place; they and the
-//! mesh baker sit behind the `bake` feature (std).
+//! [`Model::open`] a file (by its magic), orbit a [`Camera`] about it, and [`render()`] it into a
+//! [`Target`]: any embedded-graphics display with a depth buffer you own ([`DisplayTarget`]) or
+//! the crate's [`Framebuffer`], of any size, with a [`ShadingTable`] kept between frames.
 //!
 //! ```
-//! use pocketsplat_core::normal;
-//! // 13-bit normal codes: 8192 directions (Duguet & Drettakis Table 3, level 5).
-//! assert_eq!(normal::NORMAL_COUNT, 8192);
+//! use pocketsplat_core::{render, DisplayTarget, Model, RenderOptions, ShadingTable, Target, View};
+//! # use pocketsplat_core::TestPanel;
+//! # let mut display = TestPanel::new(128, 160); // your panel's driver
+//! let mut depth = [0u16; 128 * 160];
+//! let mut table = ShadingTable::<1>::new();
+//! let model = Model::open(include_bytes!("../examples/data/trefoil.tg")).unwrap();
+//! let camera = model.orbit(View::new(30.0, 20.0, 2.5));
+//! let mut target = Target::new(DisplayTarget::new(&mut display, &mut depth).unwrap(), &mut table);
+//! render(&model, &camera, &RenderOptions::default(), &mut target).unwrap();
+//! # assert!(display.lit() > 1000);
 //! ```
+//!
+//! Everything a firmware names is at the root: the model ([`Model`], [`Verify`]), the camera ([`Camera`],
+//! [`View`]), the options ([`RenderOptions`], [`ShadowMode`], [`Kernel`], [`Material`]), the
+//! target ([`Target`], [`DisplayTarget`], [`Framebuffer`], [`ShadingTable`], and `LightFrame`
+//! for shadows), the errors ([`ModelError`], [`RenderError`], [`FrameError`]), a display for tests
+//! ([`TestPanel`]), and the hooks of [`render_marked`] ([`Layer`], [`Walk`], the sinks).
+//! [`render`](mod@render) tells the pipeline whole; `examples/cortex_m.rs` is a firmware that uses
+//! it, and `render_stream` draws a file read in blocks (feature `stream`).
+//!
+//! The modules below are the formats' readers and writers (`tg`, `qs`, `scene`), the streaming
+//! reader (`stream`), the traversal's parts and the desktop's baker (`bake`, std): what the board
+//! crates and the simulator build on. The writers live next to the readers so that each byte layout
+//! is defined in one place.
 #![cfg_attr(not(test), no_std)]
 
 #[cfg(not(any(feature = "trigrid", feature = "qsplat")))]
@@ -58,14 +76,36 @@ pub mod shadow;
 pub mod splat;
 #[cfg(feature = "stream")]
 pub mod stream;
+mod test_panel;
 #[cfg(feature = "trigrid")]
 pub mod tg;
 
 #[cfg(feature = "bake")]
 pub mod bake;
 
+// The one way in, flat at the root: what a firmware author names to open a model and draw it into
+// a display (the cortex_m example and every doctest import only these). The modules stay public for
+// the formats' readers and writers, the traversal's hooks and the desktop tools.
 pub use camera::{Camera, View, Viewport};
-pub use render::{render, Model, RenderOptions, Target};
+pub use crc::Crc32;
+pub use format::FileFormat;
+pub use frame::Walk;
+pub use raster::{DepthTarget, DisplayTarget, Framebuffer, Kernel};
+pub use render::{
+    render, render_marked, Drawn, FrameError, Layer, Model, ModelError, Phase, RenderError,
+    RenderOptions, Target,
+};
+#[cfg(feature = "stream")]
+pub use render::{render_stream, StreamPass};
+pub use shade::{Material, ShadingTable, ShadowMode};
+#[cfg(feature = "shadows")]
+pub use shadow::LightFrame;
+pub use splat::{ColorSink, SampleSplat, SplatSink, Stats};
+#[cfg(feature = "stream")]
+pub use stream::{ChunkSource, MemSource};
+pub use test_panel::TestPanel;
+#[cfg(feature = "trigrid")]
+pub use tg::Verify;
 
 /// Helpers of the unit tests.
 #[cfg(test)]

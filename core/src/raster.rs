@@ -291,17 +291,8 @@ pub fn crc565(pixels: &[u16]) -> u32 {
 /// its top-left corner).
 ///
 /// ```
-/// use pocketsplat_core::raster::{DisplayTarget, DepthTarget};
-/// # use core::convert::Infallible;
-/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
-/// # struct Panel;
-/// # impl OriginDimensions for Panel { fn size(&self) -> Size { Size::new(128, 160) } }
-/// # impl DrawTarget for Panel {
-/// #     type Color = Rgb565;
-/// #     type Error = Infallible;
-/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, _: I) -> Result<(), Infallible> { Ok(()) }
-/// # }
-/// let mut panel = Panel;
+/// use pocketsplat_core::{DepthTarget, DisplayTarget, TestPanel};
+/// let mut panel = TestPanel::new(128, 160);
 /// let mut depth = vec![0u16; 128 * 160];
 /// let target = DisplayTarget::new(&mut panel, &mut depth).expect("a depth value per pixel");
 /// assert_eq!((target.viewport().width, target.viewport().height), (128, 160));
@@ -463,7 +454,7 @@ impl<const W: usize, const H: usize> OriginDimensions for Framebuffer<'_, W, H> 
 /// use embedded_graphics_core::prelude::*;
 /// use embedded_graphics_core::image::ImageDrawable;
 /// use embedded_graphics_core::pixelcolor::Rgb565;
-/// use pocketsplat_core::raster::Framebuffer;
+/// use pocketsplat_core::Framebuffer;
 ///
 /// // A caller's display: here one that counts the white pixels it is sent.
 /// struct Panel(usize);

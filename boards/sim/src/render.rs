@@ -393,6 +393,10 @@ pub fn levels_of(model: &Model<'_>) -> anyhow::Result<Levels> {
         Model::TriGrid(grid) => Levels::of_grid(grid.header().depth),
         Model::QSplat(file) => Levels::of_qsplat(file)?,
         Model::Scene(scene) => Levels::of_scene(scene)?,
+        other => anyhow::bail!(
+            "colour by resolution: no levels for a {} file",
+            other.format().name()
+        ),
     })
 }
 

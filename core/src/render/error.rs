@@ -7,9 +7,11 @@ use crate::format::FileFormat;
 use crate::frame::FrameError;
 use crate::shade::ShadowMode;
 
-/// Why a file cannot be opened as a [`Model`](super::Model).
+/// Why a file cannot be opened as a [`Model`](super::Model). Some variants come with the format
+/// features: match with a `_` arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ModelError {
     /// The first bytes are no format's magic.
     UnknownFormat,
@@ -58,9 +60,11 @@ impl fmt::Display for ModelError {
     }
 }
 
-/// Why [`render`](super::render()) cannot draw a frame.
+/// Why [`render`](super::render()) cannot draw a frame. Some variants come with the format
+/// features: match with a `_` arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum RenderError {
     /// The format's per-frame tables ([`FrameError`]: a bad camera or cutoff, ρ above 3).
     Frame(FrameError),

@@ -2,25 +2,11 @@
 //!
 //! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! use pocketsplat_core::render::{render, Model, RenderOptions, Target};
-//! use pocketsplat_core::raster::DisplayTarget;
-//! use pocketsplat_core::shade::ShadingTable;
-//! use pocketsplat_core::camera::View;
-//! # use core::convert::Infallible;
-//! # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
-//! # /// A display that counts the lit pixels it is sent.
-//! # struct Panel(u32);
-//! # impl OriginDimensions for Panel { fn size(&self) -> Size { Size::new(128, 160) } }
-//! # impl DrawTarget for Panel {
-//! #     type Color = Rgb565;
-//! #     type Error = Infallible;
-//! #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
-//! #         self.0 += px.into_iter().filter(|Pixel(_, c)| *c != Rgb565::BLACK).count() as u32;
-//! #         Ok(())
-//! #     }
-//! # }
-//! // Any embedded-graphics display (here a 128 × 160 panel) and a depth value per pixel.
-//! let mut panel = Panel(0);
+//! use pocketsplat_core::{render, DisplayTarget, Model, RenderOptions, ShadingTable, Target, View};
+//! use pocketsplat_core::TestPanel;
+//! // Any embedded-graphics display (here the crate's test panel, 128 × 160, which counts what
+//! // it is sent) and a depth value per pixel.
+//! let mut panel = TestPanel::new(128, 160);
 //! let mut depth = vec![0u16; 128 * 160];
 //! // The shading table (16 KB), kept between frames: rebuilt only when the view turns.
 //! let mut table = ShadingTable::<1>::new();
@@ -30,8 +16,7 @@
 //! let camera = model.orbit(View::new(30.0, 20.0, 2.5)); // the projection follows the panel
 //! let mut target = Target::new(DisplayTarget::new(&mut panel, &mut depth).unwrap(), &mut table);
 //! render(&model, &camera, &RenderOptions::default(), &mut target)?;
-//! drop(target);
-//! assert!(panel.0 > 1000, "the knot covers {} pixels", panel.0);
+//! assert!(panel.lit() > 1000, "the knot covers {} pixels", panel.lit());
 //! # Ok(())
 //! # }
 //! ```
@@ -84,22 +69,8 @@ use crate::shadow::LightFrame;
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use embedded_graphics_core::image::ImageDrawable;
-/// use pocketsplat_core::raster::Framebuffer;
-/// use pocketsplat_core::shade::ShadingTable;
-/// use pocketsplat_core::{render, Model, RenderOptions, Target, View};
-/// # use core::convert::Infallible;
-/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
-/// # /// A 320 × 240 display that counts the lit pixels it is sent.
-/// # struct Landscape(usize);
-/// # impl OriginDimensions for Landscape { fn size(&self) -> Size { Size::new(320, 240) } }
-/// # impl DrawTarget for Landscape {
-/// #     type Color = Rgb565;
-/// #     type Error = Infallible;
-/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
-/// #         self.0 += px.into_iter().filter(|Pixel(_, c)| *c != Rgb565::BLACK).count();
-/// #         Ok(())
-/// #     }
-/// # }
+/// use pocketsplat_core::{render, Framebuffer, Model, RenderOptions, ShadingTable, Target};
+/// use pocketsplat_core::{TestPanel, View};
 /// // Statics on a device; boxes here.
 /// let (mut color, mut depth) = (Box::new([[0u16; 320]; 240]), Box::new([[0u16; 320]; 240]));
 /// let mut table = ShadingTable::<1>::new();
@@ -109,9 +80,10 @@ use crate::shadow::LightFrame;
 /// let options = RenderOptions { cutoff_px: 2.0, ..RenderOptions::default() };
 /// render(&model, &model.orbit(View::new(0.0, 30.0, 2.2)), &options, &mut target)?;
 ///
-/// let mut display = Landscape(0);
+/// let mut display = TestPanel::new(320, 240);
 /// target.pixels.draw(&mut display)?; // one fill_contiguous of 320 × 240 pixels
-/// assert!(display.0 > 1000);
+/// assert_eq!(display.sent(), 320 * 240);
+/// assert!(display.lit() > 1000);
 /// # Ok(())
 /// # }
 /// ```
@@ -141,10 +113,8 @@ impl<'t, P: DepthTarget, const M: usize> Target<'t, P, M> {
     ///
     /// ```
     /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-    /// use pocketsplat_core::raster::DisplayTarget;
-    /// use pocketsplat_core::shade::{ShadingTable, ShadowMode};
-    /// use pocketsplat_core::shadow::LightFrame;
-    /// use pocketsplat_core::{render, Model, RenderOptions, Target, View};
+    /// use pocketsplat_core::{render, DisplayTarget, LightFrame, Model, RenderOptions, ShadowMode};
+    /// use pocketsplat_core::{ShadingTable, Target, View};
     /// # use core::convert::Infallible;
     /// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
     /// # /// A 160 × 128 display that keeps the pixels it is sent.
@@ -247,24 +217,9 @@ pub struct Drawn {
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// use pocketsplat_core::raster::DisplayTarget;
-/// use pocketsplat_core::frame::Walk;
-/// use pocketsplat_core::render::{render_marked, Layer, Phase};
-/// use pocketsplat_core::shade::ShadingTable;
-/// use pocketsplat_core::splat::{ColorSink, SampleSplat, SplatSink, Stats};
-/// use pocketsplat_core::{Model, RenderOptions, Target, View};
-/// # use core::convert::Infallible;
-/// # use embedded_graphics_core::{prelude::*, pixelcolor::Rgb565};
-/// # struct Panel(usize);
-/// # impl OriginDimensions for Panel { fn size(&self) -> Size { Size::new(128, 160) } }
-/// # impl DrawTarget for Panel {
-/// #     type Color = Rgb565;
-/// #     type Error = Infallible;
-/// #     fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, px: I) -> Result<(), Infallible> {
-/// #         self.0 += px.into_iter().count();
-/// #         Ok(())
-/// #     }
-/// # }
+/// use pocketsplat_core::{render_marked, ColorSink, DisplayTarget, Layer, Model, Phase};
+/// use pocketsplat_core::{RenderOptions, SampleSplat, ShadingTable, SplatSink, Stats, Target};
+/// use pocketsplat_core::{TestPanel, View, Walk};
 /// /// Splats per level, then on to the raster.
 /// struct PerLevel([u32; 16]);
 /// struct Counting<'a, S>(&'a mut [u32; 16], &'a mut S);
@@ -286,7 +241,7 @@ pub struct Drawn {
 ///     }
 /// }
 ///
-/// let (mut panel, mut depth) = (Panel(0), vec![0u16; 128 * 160]);
+/// let (mut panel, mut depth) = (TestPanel::new(128, 160), vec![0u16; 128 * 160]);
 /// let mut table = ShadingTable::<1>::new();
 /// let model = Model::open(include_bytes!("../../examples/data/trefoil.tg"))?;
 /// let mut target = Target::new(DisplayTarget::new(&mut panel, &mut depth).unwrap(), &mut table);
@@ -299,7 +254,7 @@ pub struct Drawn {
 /// // At a 16 px cutoff the knot is drawn from cells above its leaves (level 4).
 /// assert!(per_level.0[..4].iter().sum::<u32>() > 0, "{:?}", per_level.0);
 /// drop(target);
-/// assert!(panel.0 > 500);
+/// assert!(panel.sent() > 500);
 /// # Ok(())
 /// # }
 /// ```

@@ -10,8 +10,11 @@ use crate::shade::{Material, ShadowMode};
 /// A validated, memory-resident model of any format this build reads: what [`render`](super::render()) draws.
 // Unboxed: there is no heap, and a firmware holds one model (a tri-grid's header and level
 // directory are its largest part, about 300 bytes; a scene's opened objects ~2 KB).
+///
+/// Its variants are the formats the build's features enable: match with a `_` arm.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub enum Model<'a> {
     /// A tri-grid (`.tg`).
     #[cfg(feature = "trigrid")]

@@ -11,8 +11,10 @@
 //! but QSplat has no shadow code, so in a shadowed scene it is drawn unshadowed and casts nothing.
 //!
 //! ```
-//! use pocketsplat_core::scene::{pack::PackError, Pack};
-//! assert!(matches!(Pack::open(b"not a pack"), Err(PackError::TooShort { .. })));
+//! use pocketsplat_core::{Model, ModelError};
+//! // A pack opens through the one way in, by its magic; a cut one is refused by name.
+//! let err = Model::open(b"PSPK\x01\x00").unwrap_err();
+//! assert!(matches!(err, ModelError::Pack(_)), "{err}");
 //! ```
 #![doc = include_str!("PACK.md")]
 

@@ -25,7 +25,7 @@
 //!   the file has samples (FORMAT.md "Validation").
 //!
 //! ```
-//! use pocketsplat_core::stream::{ChunkSource, MemSource};
+//! use pocketsplat_core::{ChunkSource, MemSource};
 //! let file = [1u8, 2, 3, 4];
 //! let mut src = MemSource::new(&file);
 //! let mut buf = [0u8; 2];

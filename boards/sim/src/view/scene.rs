@@ -74,6 +74,7 @@ impl<'a> Shown<'a> {
             }
             Model::QSplat(file) => format!("QSplat {} points", file.counts().leaves),
             Model::Scene(scene) => format!("scene, {} objects", scene.len()),
+            other => other.format().name().to_string(),
         }
     }
 
