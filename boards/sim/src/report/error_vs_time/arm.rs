@@ -179,6 +179,37 @@ impl ArmCounts {
             .copied()
     }
 
+    /// These counts with every frame of a file whose CRC is `from` counted as `to`'s: the same
+    /// samples in another byte layout (a report's bricked tri-grid and the unbricked rewrite the
+    /// firmware links into flash, [`super::Method::flash_crc`]), whose resident frames are the same
+    /// pixels (the QEMU tests compare them by CRC).
+    pub fn aliased(&self, pairs: &[(u32, u32)]) -> Self {
+        let to = |crc: u32| {
+            pairs
+                .iter()
+                .find(|(from, _)| *from == crc)
+                .map_or(crc, |(_, to)| *to)
+        };
+        let mut out = self.clone();
+        out.counts = self
+            .counts
+            .iter()
+            .map(|(k, &n)| {
+                (
+                    Key {
+                        crc: to(k.crc),
+                        ..k.clone()
+                    },
+                    n,
+                )
+            })
+            .collect();
+        for m in &mut out.models {
+            m.0 = to(m.0);
+        }
+        out
+    }
+
     /// Fails when a count file names a file none of `crcs` is: its counts would match nothing.
     ///
     /// # Errors
@@ -240,6 +271,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("0x0000abcd") && e.contains("0x00001234"), "{e}");
+    }
+
+    #[test]
+    fn a_flash_layout_counts_as_the_bake_it_was_rewritten_from() {
+        let (_d, path) = write(LINES);
+        let c = ArmCounts::load(&[path], DEFAULT_TARGET).unwrap();
+        // The firmware's unbricked file 0xabcd is the report's bricked bake 0x1234.
+        let a = c.aliased(&[(0xabcd, 0x1234)]);
+        assert_eq!(a.get(0x1234, "std", 2.0, "one-pass", "square"), Some(1234));
+        assert_eq!(a.get(0xabcd, "std", 2.0, "one-pass", "square"), None);
+        assert!(a.check_models(&[("bunny.tg".into(), 0x1234)]).is_ok());
+        // Another file's alias changes nothing.
+        let b = c.aliased(&[(0x5555, 0x1234)]);
+        assert_eq!(b.get(0xabcd, "std", 2.0, "one-pass", "square"), Some(1234));
+        assert!(b.check_models(&[("bunny.tg".into(), 0x1234)]).is_err());
     }
 
     #[test]

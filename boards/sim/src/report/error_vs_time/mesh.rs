@@ -8,6 +8,7 @@ use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::qs::write::{bake_qs, QsBakeOptions};
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::tg::write::{rewrite_tg, Layout};
 use pocketsplat_core::tg::{TriGrid, Verify};
 
 use super::brute::LeafCloud;
@@ -24,6 +25,7 @@ pub struct TgMethod<'a> {
     name: &'static str,
     grid: TriGrid<'a>,
     crc: u32,
+    flash_crc: u32,
     table: Box<ShadingTable<1>>,
 }
 
@@ -33,10 +35,14 @@ impl<'a> TgMethod<'a> {
     /// # Errors
     /// When the bytes are not a valid `.tg` file.
     pub fn new(name: &'static str, bytes: &'a [u8]) -> Result<Self> {
+        let grid = TriGrid::open(bytes, Verify::Structure)?;
+        let flash = rewrite_tg(&grid, Layout::Unbricked)
+            .map_err(|e| anyhow::anyhow!("cannot rewrite {name} unbricked: {e}"))?;
         Ok(Self {
             name,
-            grid: TriGrid::open(bytes, Verify::Structure)?,
+            grid,
             crc: pocketsplat_core::crc::crc32(bytes),
+            flash_crc: pocketsplat_core::crc::crc32(&flash),
             table: Box::new(ShadingTable::new()),
         })
     }
@@ -65,6 +71,9 @@ impl Method for TgMethod<'_> {
     }
     fn file_crc(&self) -> Option<u32> {
         Some(self.crc)
+    }
+    fn flash_crc(&self) -> Option<u32> {
+        (self.flash_crc != self.crc).then_some(self.flash_crc)
     }
     fn render(
         &mut self,

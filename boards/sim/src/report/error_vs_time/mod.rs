@@ -234,6 +234,15 @@ fn measure_and_write(
         .iter()
         .filter_map(|m| m.file_crc().map(|c| (m.name().to_owned(), c)))
         .collect();
+    // arm-bench names a tri-grid's frames by the unbricked file the firmware links: the same
+    // samples, the same frames as the bricked bake measured here.
+    let flash: Vec<(u32, u32)> = subject
+        .methods
+        .iter()
+        .filter_map(|m| Some((m.flash_crc()?, m.file_crc()?)))
+        .collect();
+    let arm = &arm.aliased(&flash);
+    let also: &[arm::ArmCounts] = &also.iter().map(|a| a.aliased(&flash)).collect::<Vec<_>>();
     arm.check_models(&crcs)?;
     let rows = measure(&mut subject, sweep, arm, |line| {
         eprintln!("measuring {line}");

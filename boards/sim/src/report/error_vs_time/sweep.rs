@@ -48,6 +48,12 @@ pub trait Method {
     fn file_crc(&self) -> Option<u32> {
         None
     }
+    /// CRC-32 of the same samples in the layout a firmware links into flash, when that is another
+    /// file than [`Method::file_crc`]'s (a tri-grid baked with bricks; the firmware's is
+    /// unbricked): `arm-bench` names its frames by that file, and they are this method's frames.
+    fn flash_crc(&self) -> Option<u32> {
+        None
+    }
     /// Renders `view` into `out` (cleared first), timing setup, traversal and raster.
     ///
     /// # Errors
