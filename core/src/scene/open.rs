@@ -9,8 +9,6 @@ use crate::frame::{FrameError, RenderOptions, Shading};
 #[cfg(feature = "qsplat")]
 use crate::qs::{QSplat, QsError};
 use crate::shade::{Material, ShadingTable};
-#[cfg(feature = "shadows")]
-use crate::shadow::LightSpace;
 use crate::splat::Stats;
 use crate::tg::frame::DepthRange;
 use crate::tg::{TgError, TriGrid, Verify};
@@ -350,10 +348,13 @@ impl<'a> Scene<'a> {
     ) -> Result<bool, SceneError> {
         Ok(self.shading(camera, light_dir)?.apply(table))
     }
+}
 
+/// What one-pass and two-pass shadows need of a scene: its light space and light order.
+#[cfg(feature = "shadows")]
+impl Scene<'_> {
     /// The light space of a directional light towards `light_dir` over every object's box.
-    #[cfg(feature = "shadows")]
-    pub fn light_space(&self, light_dir: Vec3, map_size: usize) -> LightSpace {
+    pub fn light_space(&self, light_dir: Vec3, map_size: usize) -> crate::shadow::LightSpace {
         let mut all = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
         for b in &self.bounds[..self.len()] {
             for k in 0..3 {
@@ -361,13 +362,12 @@ impl<'a> Scene<'a> {
                 all[1][k] = all[1][k].max(b[1][k]);
             }
         }
-        LightSpace::directional(light_dir, all, map_size)
+        crate::shadow::LightSpace::directional(light_dir, all, map_size)
     }
 
     /// The objects in the order one-pass shadows draw them: by the distance of their box's centre
     /// from the light, nearest first, the ground after everything else; ties keep pack order.
-    #[cfg(feature = "shadows")]
-    pub fn light_order(&self, space: &LightSpace) -> [u8; MAX_OBJECTS] {
+    pub fn light_order(&self, space: &crate::shadow::LightSpace) -> [u8; MAX_OBJECTS] {
         let n = self.len();
         let mut order: [u8; MAX_OBJECTS] = core::array::from_fn(|i| i as u8);
         let key = |i: u8| -> (bool, f64) {
