@@ -56,23 +56,36 @@ macro_rules! count {
     };
 }
 
+// The parts of the pipeline (byte reading, fixed point, the raster, shading, splats, the walk's
+// trait): public for the board crates and the desktop tools that build on them, hidden from the
+// docs, whose one way in is the re-exports below.
+#[doc(hidden)]
 pub mod bytes;
 pub mod camera;
+#[doc(hidden)]
 pub mod crc;
+#[doc(hidden)]
 pub mod fixed;
+#[doc(hidden)]
 pub mod format;
+#[doc(hidden)]
 pub mod frame;
+#[doc(hidden)]
 pub mod lod;
+#[doc(hidden)]
 pub mod normal;
 #[cfg(feature = "qsplat")]
 pub mod qs;
+#[doc(hidden)]
 pub mod raster;
 pub mod render;
 #[cfg(feature = "scene")]
 pub mod scene;
+#[doc(hidden)]
 pub mod shade;
 #[cfg(feature = "shadows")]
 pub mod shadow;
+#[doc(hidden)]
 pub mod splat;
 #[cfg(feature = "stream")]
 pub mod stream;
@@ -84,8 +97,8 @@ pub mod tg;
 pub mod bake;
 
 // The one way in, flat at the root: what a firmware author names to open a model and draw it into
-// a display (the cortex_m example and every doctest import only these). The modules stay public for
-// the formats' readers and writers, the traversal's hooks and the desktop tools.
+// a display (the cortex_m example and every doctest import only these). The formats' modules
+// (tg, qs, scene, stream, shadow, bake) stay in the docs for their readers, writers and streams.
 pub use camera::{Camera, View, Viewport};
 pub use crc::Crc32;
 pub use format::FileFormat;

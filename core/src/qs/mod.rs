@@ -8,12 +8,16 @@
 
 #[cfg(feature = "bake")]
 mod build;
+#[doc(hidden)]
 pub mod frame;
+#[doc(hidden)]
 pub mod normal;
 #[cfg(feature = "bake")]
 pub mod pieces;
 pub mod read;
+#[doc(hidden)]
 pub mod table;
+#[doc(hidden)]
 pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;

@@ -4,14 +4,17 @@
 //! (no_std, validate once, then no accessor can panic) and `write` produces it (`bake` feature).
 #![doc = include_str!("FORMAT.md")]
 
+#[doc(hidden)]
 pub mod brick;
 pub(crate) mod bricked;
 mod error;
+#[doc(hidden)]
 pub mod frame;
 mod header;
 mod hooks;
 mod nodes;
 pub mod read;
+#[doc(hidden)]
 pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;
