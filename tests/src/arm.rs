@@ -1,4 +1,4 @@
-//! The firmware (`boards/pda-arm`) under QEMU: building it for a bare-metal ARM target, booting it
+//! The firmware (`boards/qemu`) under QEMU: building it for a bare-metal ARM target, booting it
 //! with the runner of `.cargo/config.toml`, counting its instructions with the TCG plugin in
 //! `tests/qemu-plugin/icount.c`, and comparing the frames it reports with the host's. Shared by the
 //! QEMU tests (`tests/tests/qemu_*.rs`) and `arm-bench`.
@@ -23,11 +23,11 @@ use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::write::{write_tg_as, Layout};
-use pocketsplat_pda::scene::{
+use pocketsplat_qemu::scene::{
     render_scene_view, scene_frame_specs, SceneFrameReport, SceneFrameSpec, SceneTable,
     SceneTargets, SCENE_MAP_SIZE,
 };
-use pocketsplat_pda::{
+use pocketsplat_qemu::{
     render_standard_view, render_view, FrameLine, FrameReport, FrameSpec, Model, Phase, Shadows,
     Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
 };
@@ -161,7 +161,7 @@ pub fn target_dir() -> PathBuf {
 pub struct Firmware<'a> {
     /// Target triple.
     pub target: &'a str,
-    /// Cargo features of pocketsplat-pda.
+    /// Cargo features of pocketsplat-qemu.
     pub features: &'a [&'a str],
     /// The panel's size, `WxH` for `POCKETSPLAT_PDA_PANEL` (`None`: the default 240 × 320). Another
     /// size builds in a target dir of its own, so that switching does not rebuild the default.
@@ -230,7 +230,7 @@ impl Firmware<'_> {
         cmd.args([
             "build",
             "-p",
-            "pocketsplat-pda",
+            "pocketsplat-qemu",
             "--target",
             self.target,
             "--release",
@@ -263,10 +263,12 @@ impl Firmware<'_> {
             "firmware build failed ({cmd:?}):\n{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let built = target_dir.join(self.target).join("release/pocketsplat-pda");
+        let built = target_dir
+            .join(self.target)
+            .join("release/pocketsplat-qemu");
         let elf = self::target_dir()
             .join("elf")
-            .join(format!("pocketsplat-pda-{}.elf", self.name()));
+            .join(format!("pocketsplat-qemu-{}.elf", self.name()));
         fs::create_dir_all(elf.parent().expect("a parent"))?;
         fs::copy(&built, &elf)
             .with_context(|| format!("copy {} to {}", built.display(), elf.display()))?;
@@ -906,7 +908,7 @@ pub fn check_memory(run: &Run, elf: &Path) -> Result<(Memory, u64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pocketsplat_pda::frame_specs_for;
+    use pocketsplat_qemu::frame_specs_for;
 
     fn report(spec: FrameSpec, crc: u32) -> FrameReport {
         FrameReport {

@@ -3,7 +3,7 @@
 //! blocks, colours and materials; header and brick-table fields, counts, masks and group pointers
 //! in the head and in bricks, shifted runs, the leaves' partition, truncation), plus the clean file
 //! and its version 2 twin, from a real FAT image through embedded-sdmmc: the std view at 16 px,
-//! then refined at 1 px in passes (`pocketsplat_pda::hostile`).
+//! then refined at 1 px in passes (`pocketsplat_qemu::hostile`).
 //!
 //! Checked: the firmware exits through semihosting with status 0 after every file (a panic, a
 //! HardFault or a hang would fail the run), its lines equal the host's over the same image, and
@@ -16,9 +16,9 @@
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
 use pocketsplat_core::tg::write::{write_tg_as, Layout};
 use pocketsplat_core::tg::{TgError, TriGrid, Verify};
-use pocketsplat_pda::hostile::{file_name, hostile_run, HostileLine, Verdict};
-use pocketsplat_pda::stream::{orbit_view, StreamTables, CACHE_BYTES};
-use pocketsplat_pda::Model;
+use pocketsplat_qemu::hostile::{file_name, hostile_run, HostileLine, Verdict};
+use pocketsplat_qemu::stream::{orbit_view, StreamTables, CACHE_BYTES};
+use pocketsplat_qemu::Model;
 use pocketsplat_sim::stream::FileBlockDevice;
 use pocketsplat_tests::arm::{have_qemu, target_dir, Firmware, HostFrames, TARGET};
 use pocketsplat_tests::fat::{have, make_image_of};

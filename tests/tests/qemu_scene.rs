@@ -3,7 +3,7 @@
 //! linked into PSRAM; the firmware built with `scene` and `shadows` renders each of the pack's
 //! named views at each cutoff of `SCENE_CUTOFFS_PX` with the pack's light and shadows, and prints
 //! one CRC per frame; the host renders the same frames through the same library function
-//! (`pocketsplat_pda::scene::render_scene_view`), and every line must be identical. The host
+//! (`pocketsplat_qemu::scene::render_scene_view`), and every line must be identical. The host
 //! function is itself checked against the simulator's `render_pack` (what `pocketsplat render
 //! big.pack` draws).
 //!
@@ -15,8 +15,8 @@ use std::sync::OnceLock;
 
 use pocketsplat_core::scene::{Pack, Scene, ShadowMode};
 use pocketsplat_core::tg::Verify;
-use pocketsplat_pda::scene::{scene_frame_specs, SCENE_CUTOFFS_PX};
-use pocketsplat_pda::Shadows;
+use pocketsplat_qemu::scene::{scene_frame_specs, SCENE_CUTOFFS_PX};
+use pocketsplat_qemu::Shadows;
 use pocketsplat_sim::render::FrameBuffers;
 use pocketsplat_sim::scene::render::{render_pack, PackSettings};
 use pocketsplat_tests::arm::{
@@ -139,7 +139,7 @@ fn firmware_scene_frames_are_the_simulators_frames() {
 #[test]
 fn coarser_cutoffs_lose_psnr_against_1_px_at_std() {
     use pocketsplat_core::shade::rgb565_to_rgb888;
-    use pocketsplat_pda::scene::SceneFrameSpec;
+    use pocketsplat_qemu::scene::SceneFrameSpec;
     use pocketsplat_sim::metrics::psnr_rgb8;
 
     let Some(pack_path) = big_pack() else {

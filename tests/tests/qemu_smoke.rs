@@ -1,4 +1,4 @@
-//! The firmware under QEMU, without a model: builds `boards/pda-arm` for thumbv7m-none-eabi, boots it
+//! The firmware under QEMU, without a model: builds `boards/qemu` for thumbv7m-none-eabi, boots it
 //! on mps2-an385 with the runner of `.cargo/config.toml`, and checks what it reports against the host,
 //! which renders the same test-pattern frame with the same library function (docs/ARCHITECTURE.md: same frames,
 //! same CRC on ARM and host); that faults and panics end the run with a failure status instead of a
@@ -7,7 +7,7 @@
 //! Needs `qemu-system-arm` (and a C compiler for the counter): without QEMU these tests fail under CI
 //! and are skipped, with a note, elsewhere.
 
-use pocketsplat_pda::{frame_crc, render_test_frame, FRAMEBUFFER_BYTES, PIXELS};
+use pocketsplat_qemu::{frame_crc, render_test_frame, FRAMEBUFFER_BYTES, PIXELS};
 use pocketsplat_tests::arm::{
     check_memory, frame_costs, have_qemu, Counter, Firmware, Run, BOARD_RAM_BYTES,
 };

@@ -2,7 +2,7 @@
 //! on the host through semihosting file reads behind an embedded-sdmmc `BlockDevice` (the SD card's
 //! code path: MBR, FAT16 volume, root directory, `BUNNY.TG`), and draws the bunny at paper level 5
 //! (tri-grid depth 6, 5 MB) through a 64 KB block cache: the std view from a cold cache until it
-//! converges, an orbit of 24 steps, and the std view again (`pocketsplat_pda::stream`).
+//! converges, an orbit of 24 steps, and the std view again (`pocketsplat_qemu::stream`).
 //!
 //! Checked: the firmware's lines equal those of the same sequence run on the host over the same
 //! image (so every frame, byte count and missing-block count is the host's), and every converged
@@ -17,11 +17,11 @@ use std::path::Path;
 
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
 use pocketsplat_core::stream::ChunkSource;
-use pocketsplat_pda::stream::{
+use pocketsplat_qemu::stream::{
     orbit_view, stream_frames, Leg, StreamFrame, StreamTables, StreamTotals, CACHE_BYTES,
     STREAM_CUTOFF_PX,
 };
-use pocketsplat_pda::Model;
+use pocketsplat_qemu::Model;
 use pocketsplat_sim::stream::FileBlockDevice;
 use pocketsplat_tests::arm::{
     baked_bunny, check_memory, have_qemu, target_dir, Firmware, HostFrames, TARGET,
@@ -68,8 +68,8 @@ fn host_sequence(image: &Path, medium: Medium) -> (Vec<StreamFrame>, StreamTotal
     let mut sd = SdFile::new(&volumes, file);
     match medium {
         Medium::Clean => sequence(&mut sd),
-        Medium::Flaky => sequence(&mut pocketsplat_pda::stream::flaky(sd)),
-        Medium::Pulled => sequence(&mut pocketsplat_pda::stream::pulled(sd)),
+        Medium::Flaky => sequence(&mut pocketsplat_qemu::stream::flaky(sd)),
+        Medium::Pulled => sequence(&mut pocketsplat_qemu::stream::pulled(sd)),
     }
 }
 

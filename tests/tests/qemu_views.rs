@@ -2,7 +2,7 @@
 //! baked to QSplat (`.qs`, `pocketsplat bake --format qsplat`'s defaults), linked into PSRAM, renders
 //! the four standard views at each cutoff (and, a tri-grid built with shadows, with one-pass and
 //! two-pass shadows) and prints one CRC per frame; the host renders the same frames through the same
-//! library function (`pocketsplat_pda::render_standard_view`) and every CRC must be identical, or the
+//! library function (`pocketsplat_qemu::render_standard_view`) and every CRC must be identical, or the
 //! test fails naming the first frame that differs. The host function itself is checked against the
 //! simulator's renderer (`pocketsplat render`), which the golden images come from, for both formats.
 //!
@@ -17,7 +17,7 @@ use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::shadow::ShadowMode;
 use pocketsplat_core::tg::{TriGrid, Verify};
-use pocketsplat_pda::{
+use pocketsplat_qemu::{
     frame_specs_for, model_frame_specs, FrameReport, FrameSpec, Model, RenderError, Shadows,
     CUTOFFS_PX, SHADOW_MAP_SIZE,
 };

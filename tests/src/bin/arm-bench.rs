@@ -57,7 +57,7 @@ use pocketsplat_core::format::FileFormat;
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::Verify;
-use pocketsplat_pda::{frame_specs_for, FrameReport, FrameSpec, Model, Phase, Shadows};
+use pocketsplat_qemu::{frame_specs_for, FrameReport, FrameSpec, Model, Phase, Shadows};
 
 /// The model formats a benchmark draws (a scene pack has its own run, `--big-scene`).
 const MODEL_FORMATS: [FileFormat; 2] = [FileFormat::TriGrid, FileFormat::QSplat];
@@ -356,7 +356,7 @@ fn json_row(model: &Bench, target: &str, r: &Row) -> serde_json::Value {
         view: s.spec.view_name(),
         cutoff_px: s.spec.cutoff_px,
         shadows: s.spec.shadows,
-        kernel: pocketsplat_pda::views::KERNEL,
+        kernel: pocketsplat_qemu::views::KERNEL,
         crc: s.crc,
         stats: s.stats,
         cost: r.cost,
@@ -780,7 +780,7 @@ fn model_name(path: &Path) -> String {
 fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) -> Result<()> {
     use pocketsplat_core::scene::{Pack, Scene};
     use pocketsplat_core::shade::rgb565_to_rgb888;
-    use pocketsplat_pda::scene::scene_frame_specs;
+    use pocketsplat_qemu::scene::scene_frame_specs;
     use pocketsplat_sim::metrics::psnr_rgb8;
     use pocketsplat_tests::arm::{baked_big_scene, compare_scene_frames, HostSceneFrames};
 
@@ -832,7 +832,7 @@ fn big_scene(rho: u8, targets: &[String], json: bool, profile_of: Option<&str>) 
     let mut fine = Vec::new();
     for spec in scene_frame_specs(&scene) {
         host.render(&scene, spec)?;
-        if spec.cutoff_px == pocketsplat_pda::scene::SCENE_CUTOFFS_PX[0] {
+        if spec.cutoff_px == pocketsplat_qemu::scene::SCENE_CUTOFFS_PX[0] {
             fine = rgb(&host);
         }
         psnr.push(psnr_rgb8(&fine, &rgb(&host)));
@@ -906,7 +906,7 @@ fn print_scene_table(
     target: &str,
     rho: u8,
     pack_bytes: usize,
-    reports: &[pocketsplat_pda::scene::SceneFrameReport<'_>],
+    reports: &[pocketsplat_qemu::scene::SceneFrameReport<'_>],
     costs: &[FrameCost],
     psnr: &[f64],
 ) {

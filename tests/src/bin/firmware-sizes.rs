@@ -5,7 +5,7 @@
 //! cargo run --release -p pocketsplat-tests --bin firmware-sizes
 //! ```
 //!
-//! Builds `pocketsplat-pda` for thumbv7m-none-eabi (mps2-an385) once per feature set, with the
+//! Builds `pocketsplat-qemu` for thumbv7m-none-eabi (mps2-an385) once per feature set, with the
 //! bunny linked into PSRAM where the set draws a model (a depth-6 tri-grid, or the QSplat file
 //! `pocketsplat bake --format qsplat` makes, as `arm-bench` bakes them, or on a FAT disk image
 //! that the `stream` set reads through semihosting as from an SD card), boots each in QEMU
@@ -36,7 +36,7 @@ enum Linked {
 
 /// One row: what the firmware includes.
 struct Set {
-    /// Cargo features of pocketsplat-pda besides `model`.
+    /// Cargo features of pocketsplat-qemu besides `model`.
     features: &'static [&'static str],
     /// The model it links in, if any.
     model: Option<Linked>,

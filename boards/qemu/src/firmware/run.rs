@@ -4,16 +4,16 @@
 
 use cortex_m_semihosting::{debug, hprintln};
 #[cfg(any(feature = "model", feature = "stream"))]
-use pocketsplat_pda::Targets;
+use pocketsplat_qemu::Targets;
 #[cfg(not(any(feature = "model", feature = "stream")))]
-use pocketsplat_pda::{HEIGHT, WIDTH};
+use pocketsplat_qemu::{HEIGHT, WIDTH};
 
 #[cfg(feature = "stream")]
 use embedded_sdmmc::{Mode, VolumeIdx};
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
 #[cfg(feature = "stream")]
-use pocketsplat_pda::stream::StreamMemory;
+use pocketsplat_qemu::stream::StreamMemory;
 
 #[cfg(feature = "stream")]
 use super::disk::{HostDisk, IMAGE};
@@ -44,10 +44,10 @@ pub fn report_memory(psram_bytes: usize) -> ! {
 /// The named views of the linked-in scene pack at each cutoff, one line per frame, after a line
 /// on the scene and the RAM its frames need.
 #[cfg(all(feature = "model", feature = "scene"))]
-pub fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
+pub fn render_pack(mut targets: pocketsplat_qemu::scene::SceneTargets<'_>) {
     use pocketsplat_core::scene::{ram_budget, Pack, Scene};
     use pocketsplat_core::tg::Verify;
-    use pocketsplat_pda::scene::{render_scene_view, scene_frame_specs};
+    use pocketsplat_qemu::scene::{render_scene_view, scene_frame_specs};
 
     let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
     let pack = match Pack::open(bytes) {
@@ -71,7 +71,7 @@ pub fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
         p.slot_count(),
         p.view_count(),
         p.shadow_map_size(),
-        ram_budget(p, shadows, p.shadow_map_size(), pocketsplat_pda::PANEL).total()
+        ram_budget(p, shadows, p.shadow_map_size(), pocketsplat_qemu::PANEL).total()
     );
     // The materials' power tables, once, before the first frame (no view needs them rebuilt).
     targets
@@ -89,7 +89,7 @@ pub fn render_pack(mut targets: pocketsplat_pda::scene::SceneTargets<'_>) {
 #[cfg(feature = "model")]
 pub fn render_model(mut targets: Targets<'_>) {
     use pocketsplat_core::tg::Verify;
-    use pocketsplat_pda::{model_frame_specs, render_standard_view, Model};
+    use pocketsplat_qemu::{model_frame_specs, render_standard_view, Model};
 
     // Opaque: the bytes are a known constant, and the compiler must not fold any of the parse.
     let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
@@ -140,7 +140,7 @@ pub fn render_model(mut targets: Targets<'_>) {
 /// Frame 0 of the test pattern (no model linked in).
 #[cfg(not(any(feature = "model", feature = "stream")))]
 pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
-    use pocketsplat_pda::{frame_crc, render_test_frame, FrameCrc, Phase, PIXELS};
+    use pocketsplat_qemu::{frame_crc, render_test_frame, FrameCrc, Phase, PIXELS};
     // Opaque frame number: under LTO the whole frame is otherwise a constant the compiler may fold.
     let frame = core::hint::black_box(0);
     let fb: &mut [u16; PIXELS] = color
@@ -165,10 +165,10 @@ pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
 const MODEL_FILE: &str = "BUNNY.TG";
 
 /// With `selftest-hostile`: streams `H000.TG`, `H001.TG`, … of the image's first volume in turn
-/// until one is missing, one line each (`pocketsplat_pda::hostile`), then `hostile done N`.
+/// until one is missing, one line each (`pocketsplat_qemu::hostile`), then `hostile done N`.
 #[cfg(feature = "selftest-hostile")]
 pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
-    use pocketsplat_pda::hostile::{file_name, hostile_run};
+    use pocketsplat_qemu::hostile::{file_name, hostile_run};
     let disk = match HostDisk::open(IMAGE) {
         Ok(d) => d,
         Err(e) => fail(format_args!("image: {e}")),
@@ -232,12 +232,12 @@ pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
     // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably); with
     // `selftest-pulled`, the card is pulled during the orbit.
     #[cfg(feature = "selftest-flaky")]
-    let mut src = pocketsplat_pda::stream::flaky(sd);
+    let mut src = pocketsplat_qemu::stream::flaky(sd);
     #[cfg(all(feature = "selftest-pulled", not(feature = "selftest-flaky")))]
-    let mut src = pocketsplat_pda::stream::pulled(sd);
+    let mut src = pocketsplat_qemu::stream::pulled(sd);
     #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
     let mut src = sd;
-    match pocketsplat_pda::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
+    match pocketsplat_qemu::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
         hprintln!("{}", f)
     }) {
         Ok(totals) => hprintln!("{}", totals),

@@ -31,9 +31,8 @@ use pocketsplat_handheld::{
     open_model, open_stream, volumes, Button, Clock, ModelSource, Orbit, StepOutcome, StreamTables,
     StreamTargets, Viewer, CACHE_BYTES,
 };
-use pocketsplat_pda::stream::{MARKER_COLOR, MARKER_PX};
-use pocketsplat_pda::Model;
-use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
+use pocketsplat_qemu::stream::{MARKER_COLOR, MARKER_PX};
+use pocketsplat_qemu::Model;
 use pocketsplat_tests::arm::{baked_bunny, HostFrames};
 use pocketsplat_tests::fat::{have, make_image};
 
@@ -328,20 +327,17 @@ fn buttons_move_the_camera_and_idle_frames_refine_to_the_resident_frame() {
         file.len()
     );
 
-    // The panel's last frame is the resident file's at 1 px: the firmware's frame and
-    // `pocketsplat render`'s.
+    // The panel's last frame is the resident file's at 1 px: the firmware's frame and the one the
+    // core's root API draws with its default options.
     let grid = TriGrid::open(&file, Verify::Full).unwrap();
     let (want, _) = HostFrames::new()
         .render_view(&Model::from(grid), run.view, 1.0)
         .unwrap();
-    let settings = Settings {
-        view: run.view,
-        cutoff_px: 1.0,
-        ..Settings::default()
-    };
-    let mut fb = FrameBuffers::new();
-    render_tg_frame(&grid, &settings, &mut fb).unwrap();
-    assert_eq!(fb.crc(), want, "pocketsplat render and the firmware agree");
+    assert_eq!(
+        core_frame_crc(&Model::from(grid), run.view),
+        want,
+        "the core's own frame and the firmware's agree"
+    );
     assert_eq!(
         run.panel_crc, want,
         "the panel's last frame is not the resident render"
@@ -395,17 +391,13 @@ fn a_pulled_card_leaves_the_marker_and_the_loop_running() {
 /// version it is, for the panel's message to say how to convert it.
 #[test]
 fn a_version_2_model_is_refused_with_its_version() {
-    use pocketsplat_core::tg::write::{write_tg_as, Layout};
+    use pocketsplat_core::tg::write::{rewrite_tg, Layout};
     use pocketsplat_handheld::LoadError;
-    let mesh = pocketsplat_sim::demo::trefoil(48, 6, 0.45);
-    let (grid, v3) = pocketsplat_sim::bake::bake_mesh(
-        &mesh,
-        pocketsplat_core::bake::BakeOptions { rho: 3, depth: 4 },
-        12,
-        false,
-    )
-    .unwrap();
-    let v2 = write_tg_as(&grid, 12, Layout::Version2).unwrap();
+    // The core's example model, written again in both versions.
+    let example = include_bytes!("../../../core/examples/data/trefoil.tg");
+    let grid = TriGrid::open(example, Verify::Full).unwrap();
+    let v2 = rewrite_tg(&grid, Layout::Version2).unwrap();
+    let v3 = rewrite_tg(&grid, Layout::Bricked).unwrap();
     let mut tables = Box::new(StreamTables::EMPTY);
     let mut cache = Box::new([0u8; CACHE_BYTES]);
     let mut src = pocketsplat_core::stream::MemSource::new(&v2);
@@ -414,4 +406,23 @@ fn a_version_2_model_is_refused_with_its_version() {
     assert!(err.unwrap().to_string().contains("pocketsplat migrate"));
     let mut src = pocketsplat_core::stream::MemSource::new(&v3);
     assert!(open_stream(&mut src, &mut cache, &mut tables).is_ok());
+}
+
+/// CRC of `model` seen from `view` at 1 px, drawn by the core's root API alone (`render` with
+/// `RenderOptions::default()` into a `Framebuffer`): the reference the firmware's frame must equal.
+fn core_frame_crc(model: &Model<'_>, view: View) -> u32 {
+    use pocketsplat_core::{render, Framebuffer, RenderOptions, Target};
+    let mut color = Box::new([[0u16; WIDTH]; HEIGHT]);
+    let mut depth = Box::new([[0u16; WIDTH]; HEIGHT]);
+    let mut table = Box::new(ShadingTable::<1>::new());
+    let camera = model.orbit(view);
+    let options = RenderOptions {
+        cutoff_px: 1.0,
+        ..model.options()
+    };
+    {
+        let mut target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table);
+        render(model, &camera, &options, &mut target).unwrap();
+    }
+    Framebuffer::new(&mut color, &mut depth).crc()
 }

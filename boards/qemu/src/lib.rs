@@ -1,4 +1,4 @@
-//! # pocketsplat-pda
+//! # pocketsplat-qemu
 //!
 //! The board-independent half of the Cortex-M firmware: what it draws and how a frame is checksummed.
 //! It is `no_std` and builds for the host too, so the host tests compute the CRCs the firmware must
@@ -18,7 +18,7 @@
 //!   background), drawn when the firmware is built without a model.
 //!
 //! ```
-//! use pocketsplat_pda::{frame_crc, render_test_frame, PIXELS};
+//! use pocketsplat_qemu::{frame_crc, render_test_frame, PIXELS};
 //! let mut fb = [0u16; PIXELS];
 //! render_test_frame(0, &mut fb);
 //! // Deterministic: the same frame always gives the same CRC.

@@ -9,21 +9,21 @@
 //!
 //! The model is `MODEL.TG` in the card's root, of any size: it is never read whole but streamed
 //! through a 64 KB block cache ([`TgStream`], the QEMU firmware's `stream` build,
-//! `pocketsplat_pda::stream`), or else a model linked into flash, streamed the same way. The frame
+//! `pocketsplat_qemu::stream`), or else a model linked into flash, streamed the same way. The frame
 //! is the QEMU firmware's (same camera, shading and traversal:
-//! [`pocketsplat_pda::render_stream_view`]). One [`Viewer::step`] is one turn of the loop:
+//! [`pocketsplat_qemu::render_stream_view`]). One [`Viewer::step`] is one turn of the loop:
 //!
 //! - while a button is held, a whole frame at the cutoff a [`FrameRateController`] picks, drawn from
 //!   what is resident (coarser where blocks are absent), then up to [`IO_BUDGET_BYTES`] read;
 //! - when nothing is held, the same frame again until it misses nothing, then finer ones (√2 a step,
 //!   QSplat §4.2) while they fit the cache whole; the first that does not is drawn at 1 px in passes
-//!   ([`pocketsplat_pda::render_stream_pass`]) off screen, the panel keeping the last frame, and
+//!   ([`pocketsplat_qemu::render_stream_pass`]) off screen, the panel keeping the last frame, and
 //!   shown when complete: exactly the frame the resident file gives;
 //! - then nothing, until a button is pressed ([`StepOutcome::Idle`]).
 //!
 //! A read that fails (a card that errs or is pulled) leaves its block absent: frames go on from
 //! what is resident, with the red read-error marker in the top right corner
-//! ([`pocketsplat_pda::stream::draw_error_marker`]), and a refinement that cannot finish ends there.
+//! ([`pocketsplat_qemu::stream::draw_error_marker`]), and a refinement that cannot finish ends there.
 #![no_std]
 #![deny(clippy::float_arithmetic)]
 
@@ -46,17 +46,17 @@ use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
 use pocketsplat_core::stream::{ChunkSource, MemSource, OutOfRange, StreamError, TgStream};
 use pocketsplat_core::tg::TgError;
-use pocketsplat_pda::stream::{
+use pocketsplat_qemu::stream::{
     draw_error_marker, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES, MAX_PASSES,
     REFINE_IO_BUDGET_BYTES,
 };
-use pocketsplat_pda::{render_stream_pass, render_stream_view};
-use pocketsplat_pda::{HEIGHT, WIDTH};
+use pocketsplat_qemu::{render_stream_pass, render_stream_view};
+use pocketsplat_qemu::{HEIGHT, WIDTH};
 
 pub use pocketsplat_core::stream::sdmmc::NoClock;
 /// Bytes of block cache, the QEMU firmware's (64 KB).
-pub use pocketsplat_pda::stream::CACHE_BYTES;
-pub use pocketsplat_pda::StreamTargets;
+pub use pocketsplat_qemu::stream::CACHE_BYTES;
+pub use pocketsplat_qemu::StreamTargets;
 
 /// Name of the model file in the SD card's root directory (8.3).
 pub const MODEL_FILE: &str = "MODEL.TG";
@@ -306,7 +306,7 @@ impl<D: BlockDevice> ChunkSource for ModelSource<'_, D> {
 /// The block cache's tables, for files of up to [`MAX_FILE_BLOCKS`] blocks: one `static mut` on the
 /// board (its empty entries are not zero, so it sits in `.data`, apart from the zeroed cache blocks
 /// in `.bss`), a box on the host.
-pub type StreamTables = pocketsplat_pda::stream::StreamTables<MAX_FILE_BLOCKS>;
+pub type StreamTables = pocketsplat_qemu::stream::StreamTables<MAX_FILE_BLOCKS>;
 
 /// Opens the `.tg` on `src` for streaming through the [`CACHE_BYTES`] of `cache` (reads its header
 /// and CRC table).
@@ -648,7 +648,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
     }
 
     /// Whether the marker is up after the frame just drawn: from a failed read until reads succeed
-    /// again with none failing (the QEMU firmware's rule, `pocketsplat_pda::stream`).
+    /// again with none failing (the QEMU firmware's rule, `pocketsplat_qemu::stream`).
     fn update_marker(&mut self) -> bool {
         let c = *self.stream.counters();
         let failed_total = c.read_errors + c.crc_errors + c.structure_errors;

@@ -2,7 +2,7 @@
 //! constant through `black_box`, so that LTO can neither delete the calls (an empty function has
 //! no effect) nor fold the five into one address. The plugin finds them by name in the ELF.
 
-use pocketsplat_pda::Phase;
+use pocketsplat_qemu::Phase;
 
 macro_rules! marker {
     ($name:ident, $value:expr) => {

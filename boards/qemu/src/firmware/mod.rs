@@ -17,10 +17,10 @@ use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
 #[cfg(any(feature = "model", feature = "stream"))]
-use pocketsplat_pda::Targets;
+use pocketsplat_qemu::Targets;
 #[cfg(feature = "shadows")]
-use pocketsplat_pda::SHADOW_MAP_SIZE;
-use pocketsplat_pda::{HEIGHT, WIDTH};
+use pocketsplat_qemu::SHADOW_MAP_SIZE;
+use pocketsplat_qemu::{HEIGHT, WIDTH};
 
 #[cfg(all(feature = "model", feature = "stream"))]
 compile_error!("the features `model` (a model linked in) and `stream` (read from a disk image) exclude each other");
@@ -42,15 +42,15 @@ fn main() -> ! {
     static mut LIGHT: LightFrame = LightFrame::UNSET;
     // The block cache and the per-block table of a streamed model (64 KB + 1 KB + 32 KB).
     #[cfg(feature = "stream")]
-    static mut CACHE: [u8; pocketsplat_pda::stream::CACHE_BYTES] =
-        [0; pocketsplat_pda::stream::CACHE_BYTES];
+    static mut CACHE: [u8; pocketsplat_qemu::stream::CACHE_BYTES] =
+        [0; pocketsplat_qemu::stream::CACHE_BYTES];
     #[cfg(feature = "stream")]
-    static mut STREAM: pocketsplat_pda::stream::StreamTables =
-        pocketsplat_pda::stream::StreamTables::EMPTY;
+    static mut STREAM: pocketsplat_qemu::stream::StreamTables =
+        pocketsplat_qemu::stream::StreamTables::EMPTY;
     // A scene's tables: eight slots and the pack's map, beside the single model's (which a pack
     // leaves unused, as a model leaves these).
     #[cfg(all(feature = "model", feature = "scene"))]
-    static mut SCENE_TABLE: pocketsplat_pda::scene::SceneTable = ShadingTable::new();
+    static mut SCENE_TABLE: pocketsplat_qemu::scene::SceneTable = ShadingTable::new();
     #[cfg(all(feature = "model", feature = "scene"))]
     static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
 
@@ -59,8 +59,8 @@ fn main() -> ! {
     let psram_bytes = memory::check_psram();
 
     #[cfg(all(feature = "model", feature = "scene"))]
-    if pocketsplat_pda::scene::is_pack(&run::model::MODEL) {
-        run::render_pack(pocketsplat_pda::scene::SceneTargets {
+    if pocketsplat_qemu::scene::is_pack(&run::model::MODEL) {
+        run::render_pack(pocketsplat_qemu::scene::SceneTargets {
             color: COLOR,
             depth: DEPTH,
             table: SCENE_TABLE,
@@ -96,7 +96,7 @@ fn main() -> ! {
     run::report_memory(psram_bytes)
 }
 
-/// Shadow-map depths of a scene's map ([`pocketsplat_pda::scene::SCENE_MAP_SIZE`]²).
+/// Shadow-map depths of a scene's map ([`pocketsplat_qemu::scene::SCENE_MAP_SIZE`]²).
 #[cfg(all(feature = "model", feature = "scene"))]
 const SCENE_MAP_PIXELS: usize =
-    pocketsplat_pda::scene::SCENE_MAP_SIZE * pocketsplat_pda::scene::SCENE_MAP_SIZE;
+    pocketsplat_qemu::scene::SCENE_MAP_SIZE * pocketsplat_qemu::scene::SCENE_MAP_SIZE;

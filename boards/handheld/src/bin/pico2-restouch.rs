@@ -24,7 +24,7 @@ use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_handheld::{
     halt, init_panel, run, Buttons, Clock, Memory, Panel, StreamTables, StreamTargets, CACHE_BYTES,
 };
-use pocketsplat_pda::{HEIGHT, WIDTH};
+use pocketsplat_qemu::{HEIGHT, WIDTH};
 use rp235x_hal as hal;
 
 /// Tells the boot ROM this is a secure Arm executable.

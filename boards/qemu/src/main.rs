@@ -2,7 +2,7 @@
 //!
 //! With the `model` feature (and `POCKETSPLAT_PDA_MODEL`, see build.rs) a baked tri-grid, or with
 //! the `qsplat` feature also a QSplat file (the magic tells which), is linked into PSRAM and the
-//! firmware renders the four standard views at each cutoff of [`pocketsplat_pda::CUTOFFS_PX`] into
+//! firmware renders the four standard views at each cutoff of [`pocketsplat_qemu::CUTOFFS_PX`] into
 //! static colour and depth buffers, printing one
 //! `frame <view> cutoff <px> shadows <mode> crc 0x… splats N nodes N` line per frame; with the
 //! `shadows` feature too, every view of a tri-grid is also rendered with one-pass and two-pass
@@ -18,10 +18,10 @@
 //!
 //! The firmware itself is the `firmware` module tree (`src/firmware/`: the entry point, the run
 //! sequences, memory use and stack painting, faults, semihosting, the streamed disk image, the
-//! markers); the frames it draws are the library's (`pocketsplat_pda`).
+//! markers); the frames it draws are the library's (`pocketsplat_qemu`).
 //!
 //! Why the `cfg`s: the firmware only means something on bare-metal ARM. Built for the host (by
-//! `cargo build -p pocketsplat-pda`, `cargo build --workspace`, rust-analyzer, …) this file is a small
+//! `cargo build -p pocketsplat-qemu`, `cargo build --workspace`, rust-analyzer, …) this file is a small
 //! std program, the host twin, that prints the lines the firmware must print. So host builds of the
 //! workspace never break, no `required-features` switch is needed to build the firmware, and the
 //! runtime crates are target-gated dependencies that the host never compiles.
@@ -38,7 +38,7 @@ mod firmware;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     use pocketsplat_core::shade::ShadingTable;
     use pocketsplat_core::tg::Verify;
-    use pocketsplat_pda::{
+    use pocketsplat_qemu::{
         frame_crc, render_standard_view, render_test_frame, FrameCrc, Model, Targets, HEIGHT,
         PIXELS, WIDTH,
     };
@@ -62,8 +62,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let bytes = std::fs::read(&path)?;
     #[cfg(feature = "scene")]
-    if pocketsplat_pda::scene::is_pack(&bytes) {
-        use pocketsplat_pda::scene::{
+    if pocketsplat_qemu::scene::is_pack(&bytes) {
+        use pocketsplat_qemu::scene::{
             render_scene_view, scene_frame_specs, SceneTable, SceneTargets, SCENE_MAP_SIZE,
         };
         let pack = pocketsplat_core::scene::Pack::open(&bytes)?;
@@ -89,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut depth, mut table) = (rows(), Box::new(ShadingTable::<1>::new()));
     #[cfg(feature = "shadows")]
     let (mut shadow, mut light) = (
-        Box::new([0u16; pocketsplat_pda::SHADOW_MAP_SIZE * pocketsplat_pda::SHADOW_MAP_SIZE]),
+        Box::new([0u16; pocketsplat_qemu::SHADOW_MAP_SIZE * pocketsplat_qemu::SHADOW_MAP_SIZE]),
         Box::new(pocketsplat_core::shadow::LightFrame::UNSET),
     );
     let mut targets = Targets {
@@ -101,7 +101,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         #[cfg(feature = "shadows")]
         light: &mut light,
     };
-    for spec in pocketsplat_pda::model_frame_specs(&model) {
+    for spec in pocketsplat_qemu::model_frame_specs(&model) {
         println!(
             "{}",
             render_standard_view(&model, spec, &mut targets, |_| {})?

@@ -113,7 +113,7 @@ fn model() {
 }
 
 /// Whether the file at `path` starts like a QSplat file (`QSplat`, as
-/// `pocketsplat_pda::QSPLAT_MAGIC_PREFIX`); an unreadable file is left for `include_bytes!` to report.
+/// `pocketsplat_qemu::QSPLAT_MAGIC_PREFIX`); an unreadable file is left for `include_bytes!` to report.
 fn is_qsplat(path: &std::path::Path) -> bool {
     starts_with(path, b"QSplat")
 }
