@@ -30,10 +30,11 @@ fn main() {
     if arch != "arm" || os != "none" {
         return;
     }
-    // memory.x lives at the workspace root (one memory map for the reference board). rust-lld finds it
-    // in its working directory, which cargo sets to the workspace root; the search path makes that not
-    // depend on where rustc happens to run, and the rerun line relinks when the map changes. Only the
-    // mps2 firmware binary links with it.
+    // The board's memory map: memory/an505/memory.x for Armv8-M (QEMU's mps2-an505, Cortex-M33),
+    // memory/an385/memory.x otherwise (mps2-an385 and mps2-an386 share a map). Not at the workspace
+    // root: rust-lld looks in its working directory (the workspace root) before the search path, so a
+    // memory.x there would win for every target. The rerun line relinks when the map changes. Only
+    // the mps2 firmware binary links with it.
     if env::var_os("CARGO_FEATURE_MPS2").is_none() {
         return;
     }
@@ -42,12 +43,17 @@ fn main() {
     if env::var_os("CARGO_FEATURE_STREAM").is_some() {
         image();
     }
-    let root = manifest_dir().join("../..");
-    let root = root.canonicalize().unwrap_or(root);
+    let target = env::var("TARGET").unwrap_or_default();
+    let board = if target.starts_with("thumbv8m") {
+        "an505"
+    } else {
+        "an385"
+    };
+    let dir = manifest_dir().join("memory").join(board);
     // As a link argument of the binary, not `rustc-link-search`: search paths propagate to the link
     // of every crate that depends on this package's lib, and another board has its own memory.x.
-    println!("cargo:rustc-link-arg-bins=-L{}", root.display());
-    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!("cargo:rustc-link-arg-bins=-L{}", dir.display());
+    println!("cargo:rerun-if-changed={}", dir.join("memory.x").display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
 }
 

@@ -37,13 +37,23 @@ use crate::{model, workspace_root};
 
 /// The reference target: QEMU's mps2-an385 (Cortex-M3).
 pub const TARGET: &str = "thumbv7m-none-eabi";
-/// Targets `arm-bench` builds and runs: Cortex-M0+ code (on the M3 machine, which runs it), M3, and
-/// M4F on mps2-an386.
-pub const BENCH_TARGETS: [&str; 3] = [TARGET, "thumbv6m-none-eabi", "thumbv7em-none-eabihf"];
-/// Start of RAM and of PSRAM in memory.x.
+/// The Cortex-M33 target (the Pico 2 handheld's core, with its FPU): QEMU's mps2-an505.
+pub const M33_TARGET: &str = "thumbv8m.main-none-eabihf";
+/// Targets `arm-bench` builds and runs: Cortex-M0+ code (on the M3 machine, which runs it), M3, M4F
+/// on mps2-an386 and M33 on mps2-an505.
+pub const BENCH_TARGETS: [&str; 4] = [
+    TARGET,
+    "thumbv6m-none-eabi",
+    "thumbv7em-none-eabihf",
+    M33_TARGET,
+];
+/// Start of RAM in the mps2-an385 map (boards/qemu/memory/an385/memory.x).
 pub const RAM_ORIGIN: u32 = 0x2000_0000;
-/// Start of PSRAM in memory.x.
+/// Start of PSRAM in the mps2-an385 map.
 pub const PSRAM_ORIGIN: u32 = 0x2100_0000;
+/// Start of the flash (SSRAM1's Secure alias), RAM and PSRAM in the mps2-an505 map
+/// (boards/qemu/memory/an505/memory.x).
+pub const AN505_ORIGINS: [u32; 3] = [0x1000_0000, 0x2800_0000, 0x8000_0000];
 /// RAM of the board, bytes (memory.x).
 pub const BOARD_RAM_BYTES: u64 = 4 << 20;
 /// Flash of the board, bytes (memory.x).
@@ -202,11 +212,15 @@ impl Firmware<'_> {
     }
 
     /// The QEMU machine and CPU for the target: mps2-an386 (Cortex-M4F) for `thumbv7em-*hf`,
-    /// otherwise the runner's mps2-an385.
+    /// mps2-an505 (Cortex-M33) for `thumbv8m.main-*`, otherwise the runner's mps2-an385.
     fn machine(&self) -> Option<(&'static str, &'static str)> {
-        self.target
-            .starts_with("thumbv7em")
-            .then_some(("mps2-an386", "cortex-m4"))
+        if self.target.starts_with("thumbv7em") {
+            Some(("mps2-an386", "cortex-m4"))
+        } else if self.target.starts_with("thumbv8m.main") {
+            Some(("mps2-an505", "cortex-m33"))
+        } else {
+            None
+        }
     }
 
     /// Builds the firmware (release) and returns a copy of the ELF that later builds do not
@@ -872,7 +886,14 @@ pub fn compare_frames(
 /// When a figure is missing, disagrees with the ELF beyond alignment padding, or does not fit.
 pub fn check_memory(run: &Run, elf: &Path) -> Result<(Memory, u64)> {
     let image = Elf::read(elf)?;
-    let m = image.memory(RAM_ORIGIN, PSRAM_ORIGIN);
+    // Linked for mps2-an505 when its code lies in SSRAM1's Secure alias.
+    let [code, ram_at, psram_at] = AN505_ORIGINS;
+    let an505 = image.alloc_in(code, ram_at).next().is_some();
+    let m = if an505 {
+        image.memory(ram_at, psram_at)
+    } else {
+        image.memory(RAM_ORIGIN, PSRAM_ORIGIN)
+    };
     let (ram, flash, psram, stack) = (
         run.number("ram_bytes")?,
         run.number("flash_bytes")?,
