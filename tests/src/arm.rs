@@ -887,8 +887,9 @@ pub fn compare_frames(
 pub fn check_memory(run: &Run, elf: &Path) -> Result<(Memory, u64)> {
     let image = Elf::read(elf)?;
     // Linked for mps2-an505 when its code lies in SSRAM1's Secure alias.
+    // (below 0x2000_0000, where the mps2-an385 map has nothing: its RAM and PSRAM lie above).
     let [code, ram_at, psram_at] = AN505_ORIGINS;
-    let an505 = image.alloc_in(code, ram_at).next().is_some();
+    let an505 = image.alloc_in(code, RAM_ORIGIN).next().is_some();
     let m = if an505 {
         image.memory(ram_at, psram_at)
     } else {
