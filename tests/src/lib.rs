@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 
 pub mod arm;
 pub mod elf;
-pub mod fat;
 pub mod hostile;
 
 /// The workspace root (the folder holding the top-level `Cargo.toml`).
@@ -19,6 +18,8 @@ pub fn workspace_root() -> PathBuf {
         .to_path_buf()
 }
 
-/// Where the Stanford scans are, and the rule that CI may not skip a missing one (the simulator's
-/// library holds them for every crate's tests).
-pub use pocketsplat_sim::models::{model, models_dir, under_ci};
+/// SD card images made by the real FAT tools.
+pub use pocketsplat_fixture::fat;
+/// Where the Stanford scans are, and the rule that CI may not skip a missing one (the fixture crate
+/// holds them for every crate's tests, the boards' included).
+pub use pocketsplat_fixture::models::{model, models_dir, under_ci};

@@ -1,7 +1,7 @@
 //! The model the core's doctests and examples link in (`core/examples/data/trefoil.tg`) is the
 //! demo trefoil as the current baker bakes it (`pocketsplat_sim::demo::example_tg`), so that the
 //! examples show what a user's bake gives. Re-record it after a format change with
-//! `POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test example_model`.
+//! `POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test all example_model::`.
 
 use std::path::PathBuf;
 
@@ -20,14 +20,14 @@ fn the_example_model_is_the_demo_trefoil_baked_now() {
     }
     let on_disk = std::fs::read(&path).unwrap_or_else(|e| {
         panic!(
-            "{}: {e}; record it with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test example_model",
+            "{}: {e}; record it with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test all example_model::",
             path.display()
         )
     });
     assert!(
         on_disk == baked,
         "{} ({} B) is not what the baker makes now ({} B): re-record it with \
-         POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test example_model",
+         POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test all example_model::",
         path.display(),
         on_disk.len(),
         baked.len()

@@ -5,7 +5,7 @@
 //! reference renderer of the mesh, shadowed frames against its exact ray-cast shadows. The same views of the bunny's QSplat file (`bunny-qs-*.png`).
 //!
 //! Re-recording is a deliberate, separate command:
-//! `POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test golden`.
+//! `POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test all golden::`.
 
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::STANDARD_VIEWS;
@@ -35,7 +35,7 @@ fn check(file: &str, rgb: &[[u8; 3]], failures: &mut Vec<String>) {
     }
     let expected = read_rgb8_frame(&golden).unwrap_or_else(|e| {
         panic!(
-            "{e:#}; record with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test golden"
+            "{e:#}; record with POCKETSPLAT_RECORD=1 cargo test -p pocketsplat-tests --test all golden::"
         )
     });
     if let Some(diff) = compare_frames(&expected, rgb) {

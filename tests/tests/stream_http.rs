@@ -5,7 +5,7 @@
 //! the test prints bytes transferred against the file size, and frames to convergence and bytes per
 //! frame for a rotating camera. Under CI (CI=true) a missing nginx fails the test.
 //!
-//! `cargo test -p pocketsplat-tests --test stream_http -- --nocapture` shows the figures.
+//! `cargo test -p pocketsplat-tests --test all stream_http:: -- --nocapture` shows the figures.
 
 use std::io::Read;
 use std::net::{TcpListener, TcpStream};

@@ -16,7 +16,6 @@ pub mod limits;
 pub mod memory;
 pub mod metrics;
 pub mod migrate;
-pub mod models;
 pub mod ply;
 pub mod qsplat;
 pub mod reference;

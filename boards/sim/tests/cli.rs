@@ -1,7 +1,7 @@
 //! The `pocketsplat` program as a user meets it: exit codes, messages naming the file and element,
 //! no partial output on failure, and the JSON fields other tools rely on.
 
-mod common;
+use crate::common;
 use common::{files_in, pocketsplat};
 use std::process::Output;
 

@@ -2,7 +2,7 @@
 //! every row the sweep promises and no other, numbers in their ranges, plots that decode and show
 //! curves, and no output at all when the input is bad.
 
-mod common;
+use crate::common;
 use common::{model, models_dir, pocketsplat};
 
 use std::collections::{BTreeMap, BTreeSet};

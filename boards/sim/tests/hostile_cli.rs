@@ -4,7 +4,7 @@
 //! non-zero exit and a message naming the file (and the element, for meshes), never a panic, and
 //! leave no output or temporary file behind; valid extremes must bake, read back and render.
 
-mod common;
+use crate::common;
 use common::{fails, files_in, pocketsplat, succeeds};
 use std::process::Stdio;
 use std::time::{Duration, Instant};

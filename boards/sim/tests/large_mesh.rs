@@ -4,7 +4,7 @@
 //! printed:
 //!
 //! ```text
-//! cargo test --release -p pocketsplat-sim --test large_mesh -- --ignored --nocapture
+//! cargo test --release -p pocketsplat-sim --test all large_mesh:: -- --ignored --nocapture
 //! ```
 //!
 //! `POCKETSPLAT_LARGE_DIR` sets the working folder (default: the system's temporary folder); the PLY

@@ -4,7 +4,7 @@
 //! declared counts far beyond the bytes, billions of tiny records, a list count of 2³² − 1, a
 //! corrupt gzip trailer, devices and FIFOs, a bake far too deep, numbers that overflow.
 
-mod common;
+use crate::common;
 use std::io::Write;
 use std::path::Path;
 use std::process::Command;

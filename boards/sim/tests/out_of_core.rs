@@ -4,7 +4,7 @@
 //! dragon baked in many pieces to the in-memory bytes; and a bake that is refused, fails or is
 //! interrupted leaves nothing behind — no output, no spill folder.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Stdio;

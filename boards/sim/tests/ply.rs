@@ -1,7 +1,7 @@
 //! PLY import: small files written here in every encoding (exact values), every error case (variant
 //! and message), the Stanford scans in `shared/models`, and no panics on damaged input.
 
-mod common;
+use crate::common;
 use common::model;
 
 use std::io::Write;
@@ -835,7 +835,7 @@ fn dragon_res4_gz() {
 }
 
 /// The full dragon (33 MB of ASCII once decompressed). Run with
-/// `cargo test --release -p pocketsplat-sim --test ply -- --ignored --nocapture` to see the time; not
+/// `cargo test --release -p pocketsplat-sim --test all ply:: -- --ignored --nocapture` to see the time; not
 /// a timed assertion.
 #[test]
 #[ignore = "slow in debug builds; prints the load time"]

@@ -2,7 +2,7 @@
 //! independent computations: point-in-triangle tests, the analytic disc of a sphere, ray casts, and
 //! closed-form PSNR values.
 
-mod common;
+use crate::common;
 use common::model;
 
 use pocketsplat_core::bake::TriMesh;

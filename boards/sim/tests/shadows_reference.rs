@@ -4,7 +4,7 @@
 //! brute-force test of every triangle; the disagreement metric on hand-made masks; and the `render`
 //! command's shadow options.
 
-mod common;
+use crate::common;
 use common::pocketsplat;
 use std::process::Output;
 

@@ -1,7 +1,7 @@
 //! `--size WxH`: a frame of any size, its projection following the buffers, matches the reference
 //! renderer at that size as well as the 240 × 320 frame matches it at 240 × 320 (issue 20).
 
-mod common;
+use crate::common;
 
 use common::{model, pocketsplat};
 use pocketsplat_core::bake::BakeOptions;

@@ -10,7 +10,7 @@
 //!   deadlines (+10 %). The command's deadlines are set short here (the defaults are 30 s per
 //!   request and 60 s per frame and for opening; `StreamOptions::default` checks them).
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};

@@ -3,7 +3,7 @@
 //! over it.
 #![cfg(feature = "window")]
 
-mod common;
+use crate::common;
 use common::pocketsplat;
 use common::under_ci;
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! Helpers shared by the simulator's tests (`mod common;` in each test file; each file uses some):
+//! Helpers shared by the simulator's tests (`mod common;` in tests/main.rs; each module uses some):
 //! where the models are, and `pocketsplat` run as a user runs it, with the checks every hostile
 //! input must pass.
 #![allow(dead_code, unused_imports)]
@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-pub use pocketsplat_sim::models::{model, models_dir, under_ci};
+pub use pocketsplat_fixture::models::{model, models_dir, under_ci};
 
 /// The names of the files in `dir`, sorted: what a failed command must leave unchanged.
 pub fn files_in(dir: &Path) -> Vec<String> {
