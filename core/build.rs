@@ -25,6 +25,13 @@ fn main() {
         println!("cargo:rustc-link-arg-examples=-Tlink.x");
         println!("cargo:rerun-if-changed=examples/memory.x");
     }
+    // Cores without a 32 × 32 → 64 multiply (ARMv6-M: Cortex-M0/M0+/M1; ARMv8-M Baseline: M23),
+    // where `fixed::wide_mul` builds the product from 16-bit halves instead of a library call.
+    println!("cargo:rustc-check-cfg=cfg(no_long_multiply)");
+    let target = std::env::var("TARGET").unwrap_or_default();
+    if target.starts_with("thumbv6m") || target.starts_with("thumbv8m.base") {
+        println!("cargo:rustc-cfg=no_long_multiply");
+    }
     println!("cargo:rerun-if-changed=src/normal/code.rs");
     println!("cargo:rerun-if-changed=src/qs/normal.rs");
     println!("cargo:rerun-if-changed=build.rs");

@@ -13,7 +13,7 @@ pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
-use crate::fixed::{recip, SUBPIXEL_BITS};
+use crate::fixed::{recip, wide_mul, wide_mul_i16, wide_mul_u, wide_mul_u64, SUBPIXEL_BITS};
 use crate::frame::Walk;
 use crate::normal::NORMALS_Q14;
 use crate::raster::exact_footprint;
@@ -549,7 +549,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         // `s = shift − 49 ≥ 0`, so `a / W` in Q16 is the high word of `a · r31`, shifted by `s`.
         let r31 = (r >> 1) as i32;
         let s = shift - 49;
-        let hi = |a: i32| ((i64::from(a) * i64::from(r31)) >> 32) as i32 >> s;
+        let hi = |a: i32| (wide_mul(a, r31) >> 32) as i32 >> s;
         // The cell's centre, Q16 pixels, and the screen offset of one tick along each axis,
         // Q16 pixels: d(X/W) = (dX − (X/W)·dW) / W. Bounded by the linear rule (a cell of at
         // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
@@ -558,22 +558,22 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
         // (Written out per axis: `array::from_fn` here stays a call per array on thumbv7m.)
         let u = [hi(t[0][2] << 8), hi(t[1][2] << 8), hi(t[2][2] << 8)];
-        let du = |p: i32, u: i32| ((i64::from(p) * i64::from(u)) >> 24) as i32;
+        let du = |p: i32, u: i32| (wide_mul(p, u) >> 24) as i32;
         let j = |a: usize, c: usize, p: i32| hi(t[a][c]) - du(p, u[a]);
         let jx = [j(0, 0, xp), j(1, 0, xp), j(2, 0, xp)];
         let jy = [j(0, 1, yp), j(1, 1, yp), j(2, 1, yp)];
         // Depth per tick and the cell's depth, Q8 depth units.
         let jd = &f.tick_depth[n];
-        let dp = ((u64::from((w - f.depth_w0).max(0) as u32) * f.depth_scale) >> 24).min(65534 << 8)
-            as i32;
+        let dz = (w - f.depth_w0).max(0) as u32;
+        let dp = (wide_mul_u64(dz, f.depth_scale) >> 24).min(65534 << 8) as i32;
         // The footprint, Q8: k · 2^kshift / W, the high word of (k/2)·r31 shifted by
         // shift − kshift − 34 (the children's own depths differ from the cell's by under 1 %).
         let (k, kshift) = f.size_k[n];
         let s3 = shift.wrapping_sub(kshift).wrapping_sub(34);
         let size_q8 = if s3 < 32 {
-            (((i64::from(k >> 1) * i64::from(r31)) >> 32) as i32) >> s3
+            ((wide_mul((k >> 1) as i32, r31) >> 32) as i32) >> s3
         } else if shift > kshift {
-            ((u64::from(k) * u64::from(r)) >> (shift - kshift)).min(i32::MAX as u64) as i32
+            (wide_mul_u(k, r) >> (shift - kshift)).min(i32::MAX as u64) as i32
         } else {
             i32::MAX
         };
@@ -625,9 +625,9 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 let vp = *vp.get_or_insert_with(|| self.to_model(c));
                 let nq = NORMALS_Q14[code];
                 let v: [i32; 3] = core::array::from_fn(|a| vp[a] + ((o[a] * tm) >> 6));
-                let facing = i64::from(nq[0]) * i64::from(v[0])
-                    + i64::from(nq[1]) * i64::from(v[1])
-                    + i64::from(nq[2]) * i64::from(v[2]);
+                let facing = wide_mul_i16(nq[0], v[0])
+                    + wide_mul_i16(nq[1], v[1])
+                    + wide_mul_i16(nq[2], v[2]);
                 if facing > 0 {
                     count!(self.stats.backfacing += 1);
                     self.hooks.casts(n, cp);
@@ -837,9 +837,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
     fn to_model(&self, c: [i32; 3]) -> [i32; 3] {
         let m = &self.frame.to_model;
         core::array::from_fn(|k| {
-            ((i64::from(m[k][0]) * i64::from(c[0])
-                + i64::from(m[k][1]) * i64::from(c[1])
-                + i64::from(m[k][2]) * i64::from(c[2]))
+            ((wide_mul(m[k][0], c[0]) + wide_mul(m[k][1], c[1]) + wide_mul(m[k][2], c[2]))
                 >> TO_MODEL_BITS) as i32
         })
     }
@@ -875,11 +873,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let f = self.frame;
         let code = usize::from(self.data.attr(level, index) & 0x1FFF);
         let n = NORMALS_Q14[code];
-        let av = i64::from(n[0]) * i64::from(v[0])
-            + i64::from(n[1]) * i64::from(v[1])
-            + i64::from(n[2]) * i64::from(v[2]);
-        let bound = i64::from(c[2]) * i64::from(f.cone_k[class & 7])
-            + f.cone_r[class & 7][usize::from(level)];
+        let av = wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2]);
+        let bound = wide_mul(c[2], f.cone_k[class & 7]) + f.cone_r[class & 7][usize::from(level)];
         if av > bound {
             Facing::Away
         } else if -av > bound {
@@ -903,9 +898,9 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let (k, kshift) = lv.size_k;
         let ks = shift.wrapping_sub(kshift);
         let size_q8 = if (32..64).contains(&ks) {
-            (((u64::from(k) * u64::from(r)) >> 32) as u32 >> (ks - 32)).min(i32::MAX as u32) as i32
+            ((wide_mul_u(k, r) >> 32) as u32 >> (ks - 32)).min(i32::MAX as u32) as i32
         } else if shift > kshift {
-            ((u64::from(k) * u64::from(r)) >> ks).min(i32::MAX as u64) as i32
+            (wide_mul_u(k, r) >> ks).min(i32::MAX as u64) as i32
         } else {
             i32::MAX
         };
@@ -1007,7 +1002,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             let t = lv.tick;
             (
                 core::array::from_fn(|k| {
-                    let d: i64 = (0..3).map(|a| i64::from(o[a]) * i64::from(t[a][k])).sum();
+                    let d: i64 = (0..3).map(|a| wide_mul(o[a], t[a][k])).sum();
                     c[k] + (d >> 6) as i32
                 }),
                 o,
@@ -1023,9 +1018,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 None => self.to_model(c),
             };
             let n = NORMALS_Q14[code];
-            let facing = i64::from(n[0]) * i64::from(v[0])
-                + i64::from(n[1]) * i64::from(v[1])
-                + i64::from(n[2]) * i64::from(v[2]);
+            let facing =
+                wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2]);
             if facing > 0 {
                 count!(self.stats.backfacing += 1);
                 self.hooks.casts(l, p);
