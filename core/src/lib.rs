@@ -68,8 +68,7 @@ pub mod crc;
 pub mod fixed;
 #[doc(hidden)]
 pub mod format;
-#[doc(hidden)]
-pub mod frame;
+mod frame;
 #[doc(hidden)]
 pub mod lod;
 #[doc(hidden)]
