@@ -13,89 +13,78 @@
 //! divide multiplies by a reciprocal from a 257-entry table, interpolated linearly.
 #![deny(clippy::float_arithmetic)]
 
-/// `a · b`, exact. One `SMULL` where the core has a 32 × 32 → 64 multiply; on cores without one
-/// (ARMv6-M and ARMv8-M Baseline: the Cortex-M0+ and M23; `build.rs` sets `no_long_multiply`) four
-/// 16 × 16 → 32 products ([`wide_mul_halves`]), where the compiler's `i64` product is a library call
-/// (`__aeabi_lmul`, a 64 × 64 multiply) that cost the Cortex-M0+ 38 % of a frame. The same bits
-/// either way.
-#[inline(always)]
-pub fn wide_mul(a: i32, b: i32) -> i64 {
-    #[cfg(no_long_multiply)]
-    {
-        wide_mul_halves(a, b)
-    }
-    #[cfg(not(no_long_multiply))]
-    {
+#[cfg(no_long_multiply)]
+pub use halves::{wide_mul, wide_mul_i16, wide_mul_u, wide_mul_u64};
+/// Wide products (exact 32 × 32 → 64-bit, and their kin) for the per-node code: [`plain`] where the
+/// core has a 32 × 32 → 64 multiply (`SMULL`/`UMULL`), [`halves`] where it has none (ARMv6-M and
+/// ARMv8-M Baseline: the Cortex-M0+ and M23; `build.rs` sets `no_long_multiply`), where the compiler
+/// makes every `i64` product a 64 × 64 library call (`__aeabi_lmul`, 38 % of an M0+ frame). The
+/// same bits either way.
+#[cfg(not(no_long_multiply))]
+pub use plain::{wide_mul, wide_mul_i16, wide_mul_u, wide_mul_u64};
+
+/// The wide products as the language writes them.
+pub mod plain {
+    /// `a · b`, exact.
+    #[inline(always)]
+    pub fn wide_mul(a: i32, b: i32) -> i64 {
         i64::from(a) * i64::from(b)
     }
-}
 
-/// `a · b` for unsigned operands, exact: [`wide_mul`]'s unsigned twin.
-#[inline(always)]
-pub fn wide_mul_u(a: u32, b: u32) -> u64 {
-    #[cfg(no_long_multiply)]
-    {
-        wide_mul_u_halves(a, b)
-    }
-    #[cfg(not(no_long_multiply))]
-    {
+    /// `a · b`, exact.
+    #[inline(always)]
+    pub fn wide_mul_u(a: u32, b: u32) -> u64 {
         u64::from(a) * u64::from(b)
     }
-}
 
-/// `a · b` modulo 2⁶⁴ for a 64-bit `b` (a depth scale): [`wide_mul_u`] of `b`'s low half plus the
-/// high half's 32-bit product, where the core has no 32 × 32 → 64 multiply; else the plain product.
-#[inline(always)]
-pub fn wide_mul_u64(a: u32, b: u64) -> u64 {
-    #[cfg(no_long_multiply)]
-    {
-        wide_mul_u(a, b as u32).wrapping_add(u64::from(a.wrapping_mul((b >> 32) as u32)) << 32)
+    /// `a · b` for a 16-bit `a` (a Q14 normal's component), exact.
+    #[inline(always)]
+    pub fn wide_mul_i16(a: i16, b: i32) -> i64 {
+        i64::from(a) * i64::from(b)
     }
-    #[cfg(not(no_long_multiply))]
-    {
+
+    /// `a · b` for a 64-bit `b` (a depth scale), where it fits 64 bits.
+    #[inline(always)]
+    pub fn wide_mul_u64(a: u32, b: u64) -> u64 {
         u64::from(a) * b
     }
 }
 
-/// `a · b` for a 16-bit `a` (a Q14 normal's component), exact: two 16 × 16 → 32 products where
-/// [`wide_mul`] takes four.
-#[inline(always)]
-pub fn wide_mul_i16(a: i16, b: i32) -> i64 {
-    #[cfg(no_long_multiply)]
-    {
-        wide_mul_i16_halves(a, b)
+/// The wide products from 16-bit halves, `a = aₕ·2¹⁶ + aₗ`: every partial product is a 32-bit
+/// multiply (`MULS`) and the 64-bit sums are add-with-carry pairs.
+pub mod halves {
+    /// `a · b`, exact: `aₕ` signed and `aₗ` unsigned, so that `|aₕ·bₗ| < 2³¹`.
+    #[inline(always)]
+    pub fn wide_mul(a: i32, b: i32) -> i64 {
+        let (ah, al) = (a >> 16, a & 0xFFFF);
+        let (bh, bl) = (b >> 16, b & 0xFFFF);
+        let ll = (al as u32).wrapping_mul(bl as u32);
+        let mid = i64::from(ah * bl) + i64::from(al * bh);
+        (i64::from(ah * bh) << 32) + (mid << 16) + i64::from(ll)
     }
-    #[cfg(not(no_long_multiply))]
-    {
-        i64::from(a) * i64::from(b)
+
+    /// `a · b`, exact.
+    #[inline(always)]
+    pub fn wide_mul_u(a: u32, b: u32) -> u64 {
+        let (ah, al) = (a >> 16, a & 0xFFFF);
+        let (bh, bl) = (b >> 16, b & 0xFFFF);
+        let mid = u64::from(ah * bl) + u64::from(al * bh);
+        (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
     }
-}
 
-/// [`wide_mul_i16`] from `b`'s 16-bit halves: `|a·bₕ| ≤ 2³⁰`, `|a·bₗ| < 2³¹`.
-#[inline(always)]
-pub fn wide_mul_i16_halves(a: i16, b: i32) -> i64 {
-    let a = i32::from(a);
-    (i64::from(a * (b >> 16)) << 16) + i64::from(a * (b & 0xFFFF))
-}
+    /// `a · b` for a 16-bit `a`, exact: two products, `|a·bₕ| ≤ 2³⁰`, `|a·bₗ| < 2³¹`.
+    #[inline(always)]
+    pub fn wide_mul_i16(a: i16, b: i32) -> i64 {
+        let a = i32::from(a);
+        (i64::from(a * (b >> 16)) << 16) + i64::from(a * (b & 0xFFFF))
+    }
 
-/// [`wide_mul`] from 16-bit halves, `a = aₕ·2¹⁶ + aₗ` with `aₕ` signed and `aₗ` unsigned: every
-/// partial product fits 32 bits (`|aₕ·bₗ| < 2³¹`), and the 64-bit sums are add-with-carry pairs.
-#[inline(always)]
-pub fn wide_mul_halves(a: i32, b: i32) -> i64 {
-    let (ah, al) = (a >> 16, a & 0xFFFF);
-    let (bh, bl) = (b >> 16, b & 0xFFFF);
-    let ll = (al as u32).wrapping_mul(bl as u32);
-    let mid = i64::from(ah * bl) + i64::from(al * bh);
-    (i64::from(ah * bh) << 32) + (mid << 16) + i64::from(ll)
-}
-
-/// [`wide_mul_u`] from 16-bit halves.
-#[inline(always)]
-pub fn wide_mul_u_halves(a: u32, b: u32) -> u64 {
-    let (ah, al) = (a >> 16, a & 0xFFFF);
-    let (bh, bl) = (b >> 16, b & 0xFFFF);
-    let mid = u64::from(ah * bl) + u64::from(al * bh);
-    (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
+    /// `a · b` for a 64-bit `b`, modulo 2⁶⁴ (exact where it fits): `b`'s low half widened, its
+    /// high half's product shifted up.
+    #[inline(always)]
+    pub fn wide_mul_u64(a: u32, b: u64) -> u64 {
+        wide_mul_u(a, b as u32).wrapping_add(u64::from(a.wrapping_mul((b >> 32) as u32)) << 32)
+    }
 }
 
 /// Fractional bits of screen positions and sizes.
@@ -194,29 +183,25 @@ mod tests {
         }
         for (a, b) in pairs {
             let (sa, sb) = (a as i32, b as i32);
+            let want = plain::wide_mul(sa, sb);
+            assert_eq!(halves::wide_mul(sa, sb), want, "{sa} · {sb}");
             assert_eq!(
-                wide_mul_halves(sa, sb),
-                i64::from(sa) * i64::from(sb),
-                "{sa} · {sb}"
-            );
-            assert_eq!(wide_mul(sa, sb), i64::from(sa) * i64::from(sb));
-            assert_eq!(
-                wide_mul_u_halves(a, b),
-                u64::from(a) * u64::from(b),
+                halves::wide_mul_u(a, b),
+                plain::wide_mul_u(a, b),
                 "{a} · {b}"
             );
-            assert_eq!(wide_mul_u(a, b), u64::from(a) * u64::from(b));
             let a16 = a as i16;
-            let want = i64::from(a16) * i64::from(sb);
-            assert_eq!(wide_mul_i16_halves(a16, sb), want, "{a16} · {sb}");
-            assert_eq!(wide_mul_i16(a16, sb), want);
+            let want = plain::wide_mul_i16(a16, sb);
+            assert_eq!(halves::wide_mul_i16(a16, sb), want, "{a16} · {sb}");
             let b64 = (u64::from(b) << 32) | u64::from(next());
-            let halves = wide_mul_u_halves(a, b64 as u32)
-                .wrapping_add(u64::from(a.wrapping_mul((b64 >> 32) as u32)) << 32);
-            assert_eq!(halves, u64::from(a).wrapping_mul(b64));
             if let Some(p) = u64::from(a).checked_mul(b64) {
-                assert_eq!(wide_mul_u64(a, b64), p);
+                assert_eq!(halves::wide_mul_u64(a, b64), p, "{a} · {b64}");
             }
+            let small = b64 >> 40; // a depth scale's size: the product always fits
+            assert_eq!(
+                halves::wide_mul_u64(a, small),
+                plain::wide_mul_u64(a, small)
+            );
         }
     }
 

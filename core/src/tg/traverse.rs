@@ -207,6 +207,12 @@ impl<'f> DrawLevel<'f> {
     }
 }
 
+/// `n · v` for a Q14 normal `n` and an eye vector `v`, exact: the sign a backface test reads.
+#[inline(always)]
+fn normal_dot(n: [i16; 3], v: [i32; 3]) -> i64 {
+    wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2])
+}
+
 /// Bit `code` of a per-normal-code bit table.
 #[inline(always)]
 fn bit(table: &[u32; 256], code: usize) -> bool {
@@ -625,9 +631,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 let vp = *vp.get_or_insert_with(|| self.to_model(c));
                 let nq = NORMALS_Q14[code];
                 let v: [i32; 3] = core::array::from_fn(|a| vp[a] + ((o[a] * tm) >> 6));
-                let facing = wide_mul_i16(nq[0], v[0])
-                    + wide_mul_i16(nq[1], v[1])
-                    + wide_mul_i16(nq[2], v[2]);
+                let facing = normal_dot(nq, v);
                 if facing > 0 {
                     count!(self.stats.backfacing += 1);
                     self.hooks.casts(n, cp);
@@ -873,7 +877,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let f = self.frame;
         let code = usize::from(self.data.attr(level, index) & 0x1FFF);
         let n = NORMALS_Q14[code];
-        let av = wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2]);
+        let av = normal_dot(n, v);
         let bound = wide_mul(c[2], f.cone_k[class & 7]) + f.cone_r[class & 7][usize::from(level)];
         if av > bound {
             Facing::Away
@@ -1018,8 +1022,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 None => self.to_model(c),
             };
             let n = NORMALS_Q14[code];
-            let facing =
-                wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2]);
+            let facing = normal_dot(n, v);
             if facing > 0 {
                 count!(self.stats.backfacing += 1);
                 self.hooks.casts(l, p);
