@@ -103,6 +103,8 @@ pub use crc::Crc32;
 pub use format::FileFormat;
 pub use frame::Walk;
 pub use raster::{DepthTarget, DisplayTarget, Framebuffer, Kernel};
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+pub use render::render_qs_stream;
 pub use render::{
     render, render_marked, Drawn, FrameError, Layer, Model, ModelError, Phase, RenderError,
     RenderOptions, Target,

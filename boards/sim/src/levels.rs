@@ -25,6 +25,9 @@ enum Object {
     /// A QSplat file: levels to the deepest leaf of each node, by the node's byte offset in the
     /// file ([`SampleSplat::index`]).
     Tree(Vec<u8>),
+    /// A streamed QSplat file, whose tree is not known whole: the halvings of a splat's size down
+    /// to the cutoff (Q8 pixels), which a splat drawn where its children are absent is above.
+    Size(i32),
 }
 
 /// Levels above full detail, for each object of a frame (one outside scene packs).
@@ -55,6 +58,15 @@ impl Levels {
         })
     }
 
+    /// A streamed QSplat file drawn at a cutoff of `cutoff_px`: a splat larger than the cutoff
+    /// stands in for children not read yet (or is a leaf seen close up), by one level per halving.
+    pub fn of_stream(cutoff_px: f32) -> Self {
+        let q8 = (cutoff_px * 256.0).clamp(1.0, 1e9) as i32;
+        Self {
+            objects: vec![Object::Size(q8)],
+        }
+    }
+
     /// Every object of a scene pack.
     ///
     /// # Errors
@@ -78,6 +90,10 @@ impl Levels {
             Some(Object::Grid(depth)) => depth.saturating_sub(u32::from(s.level)),
             Some(Object::Tree(levels)) => {
                 levels.get(s.index as usize).copied().map_or(0, u32::from)
+            }
+            Some(&Object::Size(cutoff)) => {
+                let ratio = (s.size_q8.max(1) / cutoff.max(1)).max(1) as u32;
+                31 - ratio.leading_zeros()
             }
             None => 0,
         }

@@ -12,7 +12,7 @@
 //! - **backface units**: model integers shifted right by `bshift`, chosen per frame so that every
 //!   eye-to-node vector is below 2²⁴ and the cone test's squares fit in `i64`.
 
-use super::read::{QSplat, Tree};
+use super::read::{QSplat, TreeHead};
 use crate::camera::{self, Camera, Placement, Projection, Vec3, Viewport, PROJECTED_RANGE};
 use crate::frame::{FrameError, RenderOptions};
 use crate::raster::Kernel;
@@ -68,7 +68,12 @@ impl Scale {
 /// One rule for every renderer of `.qs` files (the simulator, the firmware), so that their frames
 /// agree.
 pub fn shading_material(file: &QSplat<'_>, base: Material) -> Material {
-    if file.counts().color_trees > 0 {
+    material_for_colors(file.counts().color_trees > 0, base)
+}
+
+/// [`shading_material`] of a file whose trees carry colours (`colored`) or not.
+pub fn material_for_colors(colored: bool, base: Material) -> Material {
+    if colored {
         Material {
             color: [1.0; 3],
             ..base
@@ -145,6 +150,20 @@ impl QsFrame {
         camera: &Camera,
         opts: &RenderOptions,
     ) -> Result<Self, FrameError> {
+        Self::of_trees(file.trees().map(|t| t.head()), placement, camera, opts)
+    }
+
+    /// [`QsFrame::new`] for the trees whose heads `trees` yields (a streamed file's, whose nodes
+    /// are not in memory).
+    ///
+    /// # Errors
+    /// As [`QsFrame::new`].
+    pub fn of_trees(
+        trees: impl Iterator<Item = TreeHead> + Clone,
+        placement: &Placement,
+        camera: &Camera,
+        opts: &RenderOptions,
+    ) -> Result<Self, FrameError> {
         let cutoff = f64::from(opts.cutoff_px);
         let projection = Projection::new(camera, placement)
             .filter(|_| cutoff > 0.0 && cutoff.is_finite())
@@ -156,9 +175,9 @@ impl QsFrame {
         };
         // The frame scale: every root sphere within 2³⁰.
         let mut bound = 0.0f64;
-        for t in file.trees() {
-            let c = t.center().map(f64::from);
-            let r = f64::from(t.radius());
+        for t in trees.clone() {
+            let c = t.center.map(f64::from);
+            let r = f64::from(t.radius);
             let [x, y, w] = eval(&rows, c);
             let e = |k: usize| r * norm(row(&rows[k]));
             let b = (libm::fabs(x) + e(0)).max(libm::fabs(y) + e(1))
@@ -177,10 +196,10 @@ impl QsFrame {
         let near_w = to_i32((camera.near * scale).max(1.0));
         // Depth: linear in W over all root spheres.
         let (mut w_lo, mut w_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for t in file.trees() {
-            let c = t.center().map(f64::from);
+        for t in trees {
+            let c = t.center.map(f64::from);
             let w = eval(&rows, c)[2];
-            let e = f64::from(t.radius()) * norm(row(&rows[2]));
+            let e = f64::from(t.radius) * norm(row(&rows[2]));
             w_lo = w_lo.min(w - e);
             w_hi = w_hi.max(w + e);
         }
@@ -233,9 +252,9 @@ impl QsFrame {
     }
 
     /// The integer tables of one tree (setup: once per tree per frame).
-    pub fn tree(&self, tree: &Tree<'_>) -> TreeFrame {
-        let c = tree.center().map(f64::from);
-        let radius = f64::from(tree.radius());
+    pub fn tree(&self, tree: &TreeHead) -> TreeFrame {
+        let c = tree.center.map(f64::from);
+        let radius = f64::from(tree.radius);
         // Model units per model integer.
         let unit = radius / f64::from(ROOT_RADIUS);
         let rows = &self.rows;

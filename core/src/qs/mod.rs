@@ -22,8 +22,10 @@ pub mod traverse;
 #[cfg(feature = "bake")]
 pub mod write;
 
-pub use frame::{shading_material, QsFrame};
-pub use read::{ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsError, Tree};
+pub use frame::{material_for_colors, shading_material, QsFrame};
+pub use read::{
+    ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsError, Tree, TreeHead,
+};
 pub use traverse::{render_qs, render_qs_colored, ColorSink, QsWalk};
 
 /// The magic of every fragment.

@@ -298,26 +298,7 @@ impl<'a> Tree<'a> {
     /// The node record at `at` (zeros where the fragment ends; never after [`QSplat::open`]).
     #[inline]
     pub fn node(&self, at: u32) -> Node {
-        let at = at as usize;
-        let (Some(b0), Some(b1)) = (self.bytes.get(at), self.bytes.get(at + 1)) else {
-            return Node::default();
-        };
-        // Node records are big-endian in every file: QSplat 1.0 wrote them byte by byte and swapped
-        // only the header fields and the pointers (FORMAT.md, "Byte order").
-        let nc = ByteOrder::Big.u16(self.bytes, at + 2).unwrap_or(0);
-        let code = b1 & 3;
-        Node {
-            sphere: u16::from(*b0) << 5 | u16::from(b1 >> 3),
-            children: if code == 0 { 0 } else { code + 1 },
-            grandchildren: b1 & 4 != 0,
-            normal: nc >> 2,
-            cone: (nc & 3) as u8,
-            color: if self.color {
-                Some(ByteOrder::Big.u16(self.bytes, at + 4).unwrap_or(0))
-            } else {
-                None
-            },
-        }
+        node_at(self.bytes, at as usize, self.color)
     }
 
     /// The 32-bit group pointer at `at` (0 where the fragment ends).
@@ -333,25 +314,146 @@ impl<'a> Tree<'a> {
             Some(p) => i64::from(p) + i64::from(self.pointer(p)),
             None => 0,
         };
-        Children {
-            tree: *self,
+        Children(Records {
+            bytes: self.bytes,
+            base: 0,
+            color: self.color,
             at: group.first,
             left: group.count,
             cursor: u32::try_from(cursor).unwrap_or(u32::MAX),
+        })
+    }
+
+    /// What the header says, without the bytes.
+    pub fn head(&self) -> TreeHead {
+        TreeHead {
+            offset: self.offset,
+            len: self.bytes.len() as u32,
+            leaves: self.leaves,
+            color: self.color,
+            center: self.center,
+            radius: self.radius,
+            root: self.root,
         }
+    }
+}
+
+/// The node record at `at` of `bytes` (zeros where they end). Node records are big-endian in every
+/// file: QSplat 1.0 wrote them byte by byte and swapped only the header fields and the pointers
+/// (FORMAT.md, "Byte order").
+#[inline]
+pub(crate) fn node_at(bytes: &[u8], at: usize, color: bool) -> Node {
+    let (Some(b0), Some(b1)) = (bytes.get(at), bytes.get(at + 1)) else {
+        return Node::default();
+    };
+    let nc = ByteOrder::Big.u16(bytes, at + 2).unwrap_or(0);
+    let code = b1 & 3;
+    Node {
+        sphere: u16::from(*b0) << 5 | u16::from(b1 >> 3),
+        children: if code == 0 { 0 } else { code + 1 },
+        grandchildren: b1 & 4 != 0,
+        normal: nc >> 2,
+        cone: (nc & 3) as u8,
+        color: if color {
+            Some(ByteOrder::Big.u16(bytes, at + 4).unwrap_or(0))
+        } else {
+            None
+        },
+    }
+}
+
+/// What a tree fragment's header says: where the fragment is, its root sphere and root group. A
+/// streamed tree is known by its head alone; its nodes stay on the medium.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeHead {
+    /// Offset of the fragment in the file.
+    pub offset: u32,
+    /// Its length, header included.
+    pub len: u32,
+    /// Leaf points.
+    pub leaves: u32,
+    /// Whether nodes carry RGB565 colours (6-byte nodes).
+    pub color: bool,
+    /// Centre of the root sphere, model units.
+    pub center: [f32; 3],
+    /// Radius of the root sphere, model units.
+    pub radius: f32,
+    /// The root's children.
+    pub root: Group,
+}
+
+impl TreeHead {
+    /// Bytes per node record.
+    pub fn node_bytes(&self) -> u32 {
+        if self.color {
+            6
+        } else {
+            4
+        }
+    }
+
+    /// The head of the tree fragment whose first 40 bytes are `header`, `len` bytes long, at
+    /// `offset` (no validation beyond bounds).
+    pub fn parse(header: &[u8], len: u32, order: ByteOrder, offset: u32) -> Option<Self> {
+        let leaves = order.u32(header, 12)?;
+        let color = order.u32(header, 16)? & OPT_COLOR != 0;
+        let f = |i: usize| order.f32(header, 20 + 4 * i);
+        let center = [f(0)?, f(1)?, f(2)?];
+        let radius = f(3)?;
+        let children = order.u32(header, 36)?;
+        let node_bytes = if color { 6 } else { 4 };
+        let count = u8::try_from(children).unwrap_or(u8::MAX);
+        // The root's group starts with a pointer, except that QSplat 1.0 wrote none for a model of
+        // exactly 4 leaves. Only when every root child is a leaf can the pointer be missing, and
+        // then the fragment length tells: the pointer adds exactly 4 bytes.
+        let bare = HEADER_BYTES as u64 + u64::from(children) * node_bytes;
+        let pointer = !(u64::from(leaves) == u64::from(children) && u64::from(len) < bare + 4);
+        let root = Group {
+            pointer: pointer.then_some(HEADER_BYTES as u32),
+            first: HEADER_BYTES as u32 + if pointer { POINTER_BYTES } else { 0 },
+            count,
+        };
+        Some(Self {
+            offset,
+            len,
+            leaves,
+            color,
+            center,
+            radius,
+            root,
+        })
     }
 }
 
 /// Iterator over a sibling group: `(offset, node, child group)`.
 #[derive(Clone, Debug)]
-pub struct Children<'a> {
-    tree: Tree<'a>,
-    at: u32,
-    left: u8,
-    cursor: u32,
-}
+pub struct Children<'a>(Records<&'a [u8]>);
 
 impl Iterator for Children<'_> {
+    type Item = (u32, Node, Option<Group>);
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        self.0.next()
+    }
+}
+
+/// A sibling group's records read from `bytes`, which hold the fragment from offset `base` on: the
+/// whole fragment in place, or one group copied out of a block cache.
+#[derive(Clone, Debug)]
+pub(crate) struct Records<B> {
+    pub(crate) bytes: B,
+    pub(crate) base: u32,
+    pub(crate) color: bool,
+    /// Offset of the next record in the fragment.
+    pub(crate) at: u32,
+    pub(crate) left: u8,
+    /// Where the next child group starts (the target of the group's pointer, then each child
+    /// group's end).
+    pub(crate) cursor: u32,
+}
+
+impl<B: AsRef<[u8]>> Iterator for Records<B> {
     type Item = (u32, Node, Option<Group>);
 
     #[inline]
@@ -361,14 +463,19 @@ impl Iterator for Children<'_> {
         }
         self.left -= 1;
         let at = self.at;
-        let node = self.tree.node(at);
-        self.at = at.saturating_add(self.tree.node_bytes());
+        let nb = if self.color { 6 } else { 4 };
+        let node = node_at(
+            self.bytes.as_ref(),
+            at.wrapping_sub(self.base) as usize,
+            self.color,
+        );
+        self.at = at.saturating_add(nb);
         let group = (node.children > 0).then(|| {
             let pointer = node.grandchildren.then_some(self.cursor);
             let first =
                 self.cursor
                     .saturating_add(if node.grandchildren { POINTER_BYTES } else { 0 });
-            self.cursor = first.saturating_add(u32::from(node.children) * self.tree.node_bytes());
+            self.cursor = first.saturating_add(u32::from(node.children) * nb);
             Group {
                 pointer,
                 first,
@@ -450,33 +557,16 @@ impl<'a> Iterator for Fragments<'a> {
 
 /// The typed header of a tree fragment (no validation beyond bounds).
 fn tree_header(frag: &[u8], order: ByteOrder, offset: u32) -> Option<Tree<'_>> {
-    let leaves = order.u32(frag, 12)?;
-    let color = order.u32(frag, 16)? & OPT_COLOR != 0;
-    let f = |i: usize| order.f32(frag, 20 + 4 * i);
-    let center = [f(0)?, f(1)?, f(2)?];
-    let radius = f(3)?;
-    let children = order.u32(frag, 36)?;
-    let node_bytes = if color { 6 } else { 4 };
-    let count = u8::try_from(children).unwrap_or(u8::MAX);
-    // The root's group starts with a pointer, except that QSplat 1.0 wrote none for a model of
-    // exactly 4 leaves. Only when every root child is a leaf can the pointer be missing, and then the
-    // fragment length tells: the pointer adds exactly 4 bytes.
-    let bare = HEADER_BYTES as u64 + u64::from(children) * node_bytes;
-    let pointer = !(u64::from(leaves) == u64::from(children) && (frag.len() as u64) < bare + 4);
-    let root = Group {
-        pointer: pointer.then_some(HEADER_BYTES as u32),
-        first: HEADER_BYTES as u32 + if pointer { POINTER_BYTES } else { 0 },
-        count,
-    };
+    let h = TreeHead::parse(frag, frag.len() as u32, order, offset)?;
     Some(Tree {
         bytes: frag,
         order,
         offset,
-        leaves,
-        color,
-        center,
-        radius,
-        root,
+        leaves: h.leaves,
+        color: h.color,
+        center: h.center,
+        radius: h.radius,
+        root: h.root,
     })
 }
 
@@ -705,7 +795,7 @@ impl<'a> QSplat<'a> {
         }
     }
     /// The tree fragments in file order.
-    pub fn trees(&self) -> impl Iterator<Item = Tree<'a>> + 'a {
+    pub fn trees(&self) -> impl Iterator<Item = Tree<'a>> + Clone + 'a {
         self.fragments().filter_map(|f| match f {
             Fragment::Tree(t) => Some(t),
             Fragment::Comment(_) => None,
@@ -734,50 +824,65 @@ impl<'a> QSplat<'a> {
     /// The box around every tree's decoded spheres at depth `max_depth` (or at their leaves, where
     /// a tree ends first; depth 0: the root spheres): the spheres enclose their subtrees, so the box
     /// encloses the model.
-    #[allow(clippy::float_arithmetic)] // setup, once per file
     pub fn tree_bounds(&self, max_depth: usize) -> [[f32; 3]; 2] {
-        let mut b = [[f32::MAX; 3], [f32::MIN; 3]];
-        let mut add = |c: [f32; 3], r: f32| {
-            for k in 0..3 {
-                b[0][k] = b[0][k].min(c[k] - r);
-                b[1][k] = b[1][k].max(c[k] + r);
-            }
-        };
-        // Depth first with a fixed stack: at most 4 siblings wait per level.
-        let mut stack = [(Group::default(), [0f32; 3], 0f32, 0usize); 4 * (BOUNDS_DEPTH + 1)];
-        for t in self.trees() {
-            if max_depth == 0 {
-                add(t.center, t.radius);
+        tree_bounds_by(self.trees().map(|t| (t.head(), t)), max_depth, |t, g| {
+            Some(t.children(g))
+        })
+    }
+}
+
+/// [`QSplat::tree_bounds`] of the trees `trees` yields, each group's records read by `children`
+/// (`None`: a group that cannot be read, left out): the resident file's, or a stream's at open.
+#[allow(clippy::float_arithmetic)] // setup, once per file
+pub(crate) fn tree_bounds_by<T, R: Iterator<Item = (u32, Node, Option<Group>)>>(
+    trees: impl Iterator<Item = (TreeHead, T)>,
+    max_depth: usize,
+    mut children: impl FnMut(&mut T, Group) -> Option<R>,
+) -> [[f32; 3]; 2] {
+    let mut b = [[f32::MAX; 3], [f32::MIN; 3]];
+    let mut add = |c: [f32; 3], r: f32| {
+        for k in 0..3 {
+            b[0][k] = b[0][k].min(c[k] - r);
+            b[1][k] = b[1][k].max(c[k] + r);
+        }
+    };
+    // Depth first with a fixed stack: at most 4 siblings wait per level.
+    let mut stack = [(Group::default(), [0f32; 3], 0f32, 0usize); 4 * (BOUNDS_DEPTH + 1)];
+    for (head, mut t) in trees {
+        if max_depth == 0 {
+            add(head.center, head.radius);
+            continue;
+        }
+        stack[0] = (head.root, head.center, head.radius, 1);
+        let mut n = 1;
+        while n > 0 {
+            n -= 1;
+            let (g, pc, pr, depth) = stack[n];
+            let Some(records) = children(&mut t, g) else {
                 continue;
-            }
-            stack[0] = (t.root_group(), t.center, t.radius, 1);
-            let mut n = 1;
-            while n > 0 {
-                n -= 1;
-                let (g, pc, pr, depth) = stack[n];
-                for (_, node, child) in t.children(g) {
-                    let Some(e) = super::table::sphere(node.sphere) else {
-                        continue;
-                    };
-                    let k = pr / 13.0;
-                    let c = [
-                        pc[0] + k * f32::from(e.a),
-                        pc[1] + k * f32::from(e.b),
-                        pc[2] + k * f32::from(e.c),
-                    ];
-                    let r = k * f32::from(e.s);
-                    match child {
-                        Some(g) if depth < max_depth.min(BOUNDS_DEPTH) && n < stack.len() => {
-                            stack[n] = (g, c, r, depth + 1);
-                            n += 1;
-                        }
-                        _ => add(c, r),
+            };
+            for (_, node, child) in records {
+                let Some(e) = super::table::sphere(node.sphere) else {
+                    continue;
+                };
+                let k = pr / 13.0;
+                let c = [
+                    pc[0] + k * f32::from(e.a),
+                    pc[1] + k * f32::from(e.b),
+                    pc[2] + k * f32::from(e.c),
+                ];
+                let r = k * f32::from(e.s);
+                match child {
+                    Some(g) if depth < max_depth.min(BOUNDS_DEPTH) && n < stack.len() => {
+                        stack[n] = (g, c, r, depth + 1);
+                        n += 1;
                     }
+                    _ => add(c, r),
                 }
             }
         }
-        b
     }
+    b
 }
 
 /// Levels of the trees [`QSplat::bounds`] decodes for a file without pocketsplat's bounds comment:

@@ -5,7 +5,7 @@
 #![deny(clippy::float_arithmetic)]
 
 use super::frame::{QsFrame, TreeFrame, ROOT_RADIUS, T_BITS};
-use super::read::{Group, Node, QSplat, Tree};
+use super::read::{Children, Group, Node, QSplat, Tree, TreeHead};
 use super::table::{unpack, SPHERES};
 use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
 use crate::fixed::{recip, SUBPIXEL_BITS};
@@ -65,19 +65,80 @@ pub fn render_qs_colored<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink:
 fn walk<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S, colored: bool) -> Stats {
     let mut stats = Stats::default();
     for tree in file.trees() {
-        let tf = frame.tree(&tree);
-        let mut w = Walker {
-            tree,
-            tf: &tf,
+        walk_tree(
+            &tree.head(),
+            &mut InPlace(tree),
             frame,
-            sink: &mut *sink,
-            stats,
-            colored: colored && tree.has_color(),
-        };
-        w.root();
-        stats = w.stats;
+            sink,
+            colored,
+            &mut stats,
+        );
     }
     stats
+}
+
+/// Draws the tree `head` whose groups `nodes` reads, adding to `stats`.
+pub(crate) fn walk_tree<N: QsNodes, S: ColorSink>(
+    head: &TreeHead,
+    nodes: &mut N,
+    frame: &QsFrame,
+    sink: &mut S,
+    colored: bool,
+    stats: &mut Stats,
+) {
+    let tf = frame.tree(head);
+    let mut w = Walker {
+        head,
+        nodes,
+        tf: &tf,
+        frame,
+        sink,
+        stats: *stats,
+        colored: colored && head.color,
+    };
+    w.root();
+    *stats = w.stats;
+}
+
+/// Where a walk reads a tree's sibling groups: the file in memory ([`InPlace`]), or a stream's
+/// block cache, where a group may be absent (the walk then draws its parent, Streaming QSplat §3.2).
+pub(crate) trait QsNodes {
+    /// A group's records in order.
+    type Records: Iterator<Item = (u32, Node, Option<Group>)>;
+
+    /// The records of group `g`, whose members are at `level` (the root's children are level 1),
+    /// or `None` when they are not available: absent, or refused as malformed.
+    fn group(&mut self, g: Group, level: u8) -> Option<Self::Records>;
+
+    /// The walk wanted group `g` (members at `level`) and [`QsNodes::group`] had none: `parent`
+    /// is the splat drawn in its place next (`None`: the root's group, nothing drawn).
+    #[inline(always)]
+    fn absent(&mut self, _g: Group, _level: u8, _parent: Option<&SampleSplat>) {}
+
+    /// Whether to skip member `index` of the group at `level` (what earlier passes of a refined
+    /// frame drew). Called for every member before it is visited.
+    #[inline(always)]
+    fn skip(&mut self, _level: u8, _index: usize) -> bool {
+        false
+    }
+
+    /// Whether the walk should end now (a pass that queued all it may).
+    #[inline(always)]
+    fn done(&self) -> bool {
+        false
+    }
+}
+
+/// A tree in memory: every group is there, validated at open.
+struct InPlace<'t>(Tree<'t>);
+
+impl<'t> QsNodes for InPlace<'t> {
+    type Records = Children<'t>;
+
+    #[inline(always)]
+    fn group(&mut self, g: Group, _level: u8) -> Option<Children<'t>> {
+        Some(self.0.children(g))
+    }
 }
 
 /// A decoded node: centre in model integers, projected centre, radius.
@@ -138,8 +199,9 @@ fn normal_q14(index: u16) -> Option<[i32; 3]> {
     })
 }
 
-struct Walker<'t, 'f, 's, S> {
-    tree: Tree<'t>,
+struct Walker<'t, 'f, 's, N, S> {
+    head: &'t TreeHead,
+    nodes: &'t mut N,
     tf: &'f TreeFrame,
     frame: &'f QsFrame,
     sink: &'s mut S,
@@ -147,7 +209,7 @@ struct Walker<'t, 'f, 's, S> {
     colored: bool,
 }
 
-impl<S: ColorSink> Walker<'_, '_, '_, S> {
+impl<N: QsNodes, S: ColorSink> Walker<'_, '_, '_, N, S> {
     fn root(&mut self) {
         count!(self.stats.nodes_visited += 1);
         let root = Sphere {
@@ -165,13 +227,23 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
             return;
         };
         let flags = Flags { inside, ..flags };
-        self.group(self.tree.root_group(), &root, 1, flags);
+        let g = self.head.root;
+        match self.nodes.group(g, 1) {
+            Some(records) => self.members(records, &root, 1, flags),
+            None => self.nodes.absent(g, 1, None),
+        }
     }
 
-    fn group(&mut self, g: Group, parent: &Sphere, level: u8, flags: Flags) {
+    fn members(&mut self, records: N::Records, parent: &Sphere, level: u8, flags: Flags) {
         let r13 = thirteenth_up(parent.r);
-        for (at, node, child) in self.tree.children(g) {
+        for (i, (at, node, child)) in records.enumerate() {
+            if self.nodes.skip(level, i) {
+                continue;
+            }
             self.node(at, &node, child, parent, r13, level, flags);
+            if self.nodes.done() {
+                return;
+            }
         }
     }
 
@@ -267,18 +339,27 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         }
         let w = s.xyw[2];
         let near = self.frame.near_w;
-        match child {
-            Some(g) if !(w >= near && self.tf.lod.apply(s.r as u32) <= w as u64) => {
-                self.group(g, &s, level + 1, flags);
-            }
-            _ => {
-                if w < near {
-                    // A leaf whose centre is in front of the near plane.
-                    count!(self.stats.culled += 1);
-                    return;
+        let mut wanted = None;
+        if let Some(g) = child {
+            if !(w >= near && self.tf.lod.apply(s.r as u32) <= w as u64) {
+                match self.nodes.group(g, level + 1) {
+                    Some(records) => return self.members(records, &s, level + 1, flags),
+                    None => wanted = Some(g),
                 }
-                self.draw(at, node, &s, level);
             }
+        }
+        if w < near {
+            // A leaf (or a node whose children are absent) centred in front of the near plane.
+            count!(self.stats.culled += 1);
+            return;
+        }
+        let sample = self.splat(at, &s, node, level);
+        if let Some(g) = wanted {
+            self.nodes.absent(g, level + 1, Some(&sample));
+        }
+        match node.color {
+            Some(rgb) if self.colored => self.sink.splat_colored(&sample, rgb),
+            _ => self.sink.splat(&sample),
         }
     }
 
@@ -316,8 +397,9 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
         Cone::Unknown
     }
 
+    /// The splat of node `node` at `at` with sphere `s`.
     #[inline]
-    fn draw(&mut self, at: u32, node: &Node, s: &Sphere, level: u8) {
+    fn splat(&mut self, at: u32, s: &Sphere, node: &Node, level: u8) -> SampleSplat {
         let f = self.frame;
         let [x, y, w] = s.xyw;
         let (rc, shift) = recip(w as u32);
@@ -342,20 +424,16 @@ impl<S: ColorSink> Walker<'_, '_, '_, S> {
             .unwrap_or(0);
         count!(self.stats.splats += 1);
         count!(self.stats.max_level = self.stats.max_level.max(level));
-        let sample = SampleSplat {
+        SampleSplat {
             x_q8,
             y_q8,
             size_q8,
             depth,
             attr,
             level,
-            index: self.tree.offset() + at,
+            index: self.head.offset + at,
             shadowed: false,
             exact: false,
-        };
-        match node.color {
-            Some(rgb) if self.colored => self.sink.splat_colored(&sample, rgb),
-            _ => self.sink.splat(&sample),
         }
     }
 }

@@ -18,6 +18,7 @@ use super::build::{
     Codes,
 };
 use super::normal::{self, cone_sin_bound};
+use super::read::{QSplat, QsError};
 use super::{HEADER_BYTES, MAGIC, MAX_DEPTH, OPT_COLOR, OPT_COMMENT, POINTER_BYTES};
 use crate::bake::{MeshError, TriMesh};
 
@@ -413,6 +414,33 @@ impl BakedQs {
             .map(|&c| self.culled(c, eye, facing, exact))
             .sum()
     }
+}
+
+/// A `.qs` file as QSplat 1.0 lays it out, from one pocketsplat wrote: its first tree alone (no
+/// comment fragment), and, `little`, the header fields and group pointers little-endian, as a
+/// build of the original that did not swap wrote them (node records stay big-endian). For
+/// checking that such files read, draw and stream as they are.
+///
+/// # Errors
+/// When `bytes` is not a valid `.qs` file.
+pub fn qsplat1_layout(bytes: &[u8], little: bool) -> Result<Vec<u8>, QsError> {
+    let file = QSplat::open(bytes)?;
+    let tree = file.trees().next().ok_or(QsError::NoTree)?;
+    let mut out = tree.bytes().to_vec();
+    if little {
+        let mut swap = |at: usize| out[at..at + 4].reverse();
+        for k in 0..8 {
+            swap(8 + 4 * k);
+        }
+        let mut stack = std::vec![tree.root_group()];
+        while let Some(g) = stack.pop() {
+            if let Some(p) = g.pointer {
+                swap(p as usize);
+            }
+            stack.extend(tree.children(g).filter_map(|(_, _, c)| c));
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -45,6 +45,8 @@ pub use error::{ModelError, RenderError};
 #[cfg(feature = "scene")]
 pub use formats::render_scene_marked;
 pub use model::Model;
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+pub use stream::render_qs_stream;
 #[cfg(feature = "stream")]
 pub use stream::{render_stream, StreamPass};
 

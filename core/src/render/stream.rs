@@ -9,6 +9,11 @@ use crate::raster::DepthTarget;
 use crate::shade::ShadowMode;
 use crate::stream::{StreamWalk, TgStream};
 use crate::tg::TgFrame;
+#[cfg(feature = "qsplat")]
+use crate::{
+    qs::{material_for_colors, QsFrame},
+    stream::{QsStream, QsStreamWalk},
+};
 
 /// A frame of a tri-grid streamed through a block cache ([`TgStream::render`]: it draws what is
 /// resident and queues what is missing, [`TgStream::serve`] reads it), through the same camera,
@@ -58,4 +63,46 @@ pub enum StreamPass {
     FirstPass,
     /// The next pass of the refined frame: draws over what the earlier passes drew.
     NextPass,
+}
+
+/// A frame of a QSplat file streamed through a block cache ([`QsStream::render`], or with `pass`
+/// the next pass of a refined frame, [`QsStream::render_pass`]), through the same camera, shading
+/// table, clear and raster as [`render`](super::render()): [`render_stream`] for `.qs` files.
+///
+/// # Errors
+/// [`RenderError::Frame`] when the frame cannot be set up, [`RenderError::NoShadows`] when the
+/// options ask for shadows (QSplat files have none).
+#[cfg(feature = "qsplat")]
+pub fn render_qs_stream<P: DepthTarget, L: Layer, const M: usize>(
+    stream: &mut QsStream<'_>,
+    camera: &Camera,
+    options: &RenderOptions,
+    target: &mut Target<'_, P, M>,
+    pass: StreamPass,
+    layer: &mut L,
+    mut mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    mark(Phase::Setup);
+    if options.shadows != ShadowMode::Off {
+        return Err(RenderError::NoShadows(FileFormat::QSplat, options.shadows));
+    }
+    let camera = camera.for_viewport(target.pixels.viewport());
+    let frame = QsFrame::of_trees(
+        stream.trees().iter().copied(),
+        &Placement::IDENTITY,
+        &camera,
+        options,
+    )?;
+    let material = material_for_colors(stream.has_color(), options.material);
+    let shading = Shading::uniform(material, options.light_dir, view_dir(&camera));
+    if pass == StreamPass::FirstPass {
+        stream.begin_refined();
+    }
+    let mut walk = QsStreamWalk {
+        stream,
+        frame: &frame,
+        refined: pass != StreamPass::Frame,
+    };
+    let clear = pass != StreamPass::NextPass;
+    Ok(target.draw(&mut walk, &shading, clear, options, layer, &mut mark))
 }

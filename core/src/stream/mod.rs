@@ -40,6 +40,9 @@ mod need;
 mod nodes;
 mod open;
 mod priority;
+#[cfg(feature = "qsplat")]
+mod qs;
+mod serve;
 mod tg;
 // Test helpers (sources that mistreat another): public for the project's own tests and the
 // streaming firmware's self-test, hidden from the docs a firmware author reads.
@@ -52,9 +55,47 @@ pub mod sdmmc;
 pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
 pub use open::{read_tg_header, OPEN_ATTEMPTS};
 pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
+#[cfg(feature = "qsplat")]
+pub use qs::{QsStream, QsStreamWalk, QS_MAX_TREES};
 pub use tg::{ServeReport, StreamCounters, StreamWalk, TgStream};
 
+use core::cell::Cell;
+
+#[cfg(feature = "qsplat")]
+use crate::qs::QsError;
+use crate::splat::{ColorSink, SampleSplat, SplatSink};
 use crate::tg::TgError;
+
+/// A sink that draws only while a pass has drawn nothing out of order yet (a refined frame's pass
+/// stops drawing at its first absent block).
+pub(crate) struct PassSink<'a, S> {
+    pub inner: &'a mut S,
+    pub drawing: &'a Cell<bool>,
+}
+
+impl<S: SplatSink> SplatSink for PassSink<'_, S> {
+    #[inline(always)]
+    fn splat(&mut self, s: &SampleSplat) {
+        if self.drawing.get() {
+            self.inner.splat(s);
+        }
+    }
+    #[inline(always)]
+    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
+        if self.drawing.get() {
+            self.inner.pixel(s, x, y);
+        }
+    }
+}
+
+impl<S: ColorSink> ColorSink for PassSink<'_, S> {
+    #[inline(always)]
+    fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
+        if self.drawing.get() {
+            self.inner.splat_colored(s, rgb565);
+        }
+    }
+}
 
 /// Reads bytes of one file from a medium: the one trait every streaming source implements.
 pub trait ChunkSource {
@@ -146,6 +187,16 @@ pub enum StreamError<E> {
     Device(E),
     /// The header is not a valid `.tg` header, or the CRC table fails its check every attempt.
     Format(TgError),
+    /// The fragment headers of a `.qs` file are not valid.
+    #[cfg(feature = "qsplat")]
+    Qs(QsError),
+    /// The medium cannot say how long the file is (a `.qs` stream needs it to find its fragments).
+    UnknownLength,
+    /// The `.qs` file has more tree fragments than a stream keeps heads for.
+    TooManyTrees {
+        /// Heads a stream keeps.
+        capacity: u32,
+    },
     /// The per-block table given has fewer entries than the file has blocks.
     TooManyBlocks {
         /// Blocks in the file.
@@ -170,6 +221,15 @@ impl<E: core::fmt::Debug> core::fmt::Display for StreamError<E> {
         match self {
             StreamError::Device(e) => write!(f, "read failed: {e:?}"),
             StreamError::Format(e) => write!(f, "{e}"),
+            #[cfg(feature = "qsplat")]
+            StreamError::Qs(e) => write!(f, "{e}"),
+            StreamError::UnknownLength => {
+                write!(f, "the medium does not say how long the file is")
+            }
+            StreamError::TooManyTrees { capacity } => write!(
+                f,
+                "the file has more than {capacity} tree fragments, more than a stream keeps"
+            ),
             StreamError::TooManyBlocks { blocks, capacity } => write!(
                 f,
                 "the file has {blocks} blocks but the block table holds {capacity}"

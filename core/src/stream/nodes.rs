@@ -6,8 +6,9 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BRICK_BAD, BRICK_OK, NOT_QUEUED, NO_SLOT};
+use super::cache::{BlockCache, BRICK_BAD, BRICK_OK, NOT_QUEUED};
 use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
+use super::serve::push;
 use crate::tg::brick::{check_brick, Array, Brick, BrickEntry};
 use crate::tg::read::{Header, LevelDir};
 use crate::tg::traverse::NodeData;
@@ -344,44 +345,9 @@ impl StreamNodes<'_, '_, '_> {
         }
     }
 
-    /// Queues block `b` with `priority`, raising it if already queued (a block's priority is its
-    /// best node's, §3.4); when the queue is full the lowest request makes room or this one is
-    /// dropped. Returns whether the block was newly queued.
+    /// Queues block `b` ([`push`]).
     fn push(&mut self, b: usize, priority: u32) -> bool {
-        let Some(e) = self.cache.blocks.get(b) else {
-            *self.dropped += 1; // outside the file: a damaged directory; never converges
-            return false;
-        };
-        if e.slot != NO_SLOT {
-            return false;
-        }
-        if e.queued != NOT_QUEUED {
-            let r = &mut self.queue[usize::from(e.queued)];
-            r.priority = r.priority.max(priority);
-            return false;
-        }
-        let req = Request {
-            priority,
-            block: b as u32,
-        };
-        if self.queue.push(req).is_ok() {
-            self.cache.blocks[b].queued = (self.queue.len() - 1) as u16;
-            return true;
-        }
-        let (i, low) = self
-            .queue
-            .iter()
-            .enumerate()
-            .min_by_key(|(_, r)| r.priority)
-            .map(|(i, r)| (i, *r))
-            .expect("a full queue is not empty");
-        *self.dropped += 1;
-        if priority > low.priority {
-            self.cache.blocks[low.block as usize].queued = NOT_QUEUED;
-            self.queue[i] = req;
-            self.cache.blocks[b].queued = i as u16;
-        }
-        false
+        push(self.cache, self.queue, self.dropped, b, priority)
     }
 
     #[inline]

@@ -5,22 +5,20 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BlockEntry, Evict, SlotEntry, MIN_SLOTS, NOT_QUEUED, NO_SLOT};
+use super::cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
 use super::need::{LevelEnds, Need};
 use super::nodes::{Bricks, Entered, Level, PassState, Phase, Refine, Request, StreamNodes};
 use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
 use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
-use super::{ChunkSource, StreamError};
+use super::serve::{clear_queue, first_absent, Feed, Verdict};
+use super::{ChunkSource, PassSink, StreamError};
 use crate::crc::crc32;
 use crate::frame::Walk;
-use crate::splat::{ColorSink, SampleSplat, SplatSink, Stats};
+use crate::splat::{ColorSink, SplatSink, Stats};
 use crate::tg::brick::band_end;
 use crate::tg::read::{check_block, Header, LevelDir};
 use crate::tg::traverse::{render_nodes, NoShadows, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
-
-/// Longest backoff after repeated failures, frames.
-const MAX_BACKOFF: u32 = 64;
 
 /// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
 const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
@@ -119,27 +117,6 @@ impl Walk for StreamWalk<'_, '_> {
             self.stream.render_pass(self.frame, sink)
         } else {
             self.stream.render(self.frame, sink)
-        }
-    }
-}
-
-/// A sink that draws only while a pass has drawn nothing out of order yet.
-struct PassSink<'a, S> {
-    inner: &'a mut S,
-    drawing: &'a Cell<bool>,
-}
-
-impl<S: SplatSink> SplatSink for PassSink<'_, S> {
-    #[inline(always)]
-    fn splat(&mut self, s: &SampleSplat) {
-        if self.drawing.get() {
-            self.inner.splat(s);
-        }
-    }
-    #[inline(always)]
-    fn pixel(&mut self, s: &SampleSplat, x: i32, y: i32) {
-        if self.drawing.get() {
-            self.inner.pixel(s, x, y);
         }
     }
 }
@@ -452,12 +429,7 @@ impl<'a> TgStream<'a> {
         self.frame = self.frame.wrapping_add(1).max(1);
         self.counters.frames += 1;
         self.passing = phase != Phase::Progressive;
-        for r in &self.queue {
-            if let Some(e) = self.cache.blocks.get_mut(r.block as usize) {
-                e.queued = NOT_QUEUED;
-            }
-        }
-        self.queue.clear();
+        clear_queue(&mut self.cache, &mut self.queue);
         let mut dropped = 0u32;
         let mut inconsistent = 0u32;
         let mut bad_bricks = 0u32;
@@ -551,135 +523,32 @@ impl<'a> TgStream<'a> {
         src: &mut C,
         budget_bytes: u32,
     ) -> ServeReport {
-        let bs = self.header.block_size();
-        let mut left = (budget_bytes as usize).max(bs);
-        let mut report = ServeReport::default();
-        if self.passing {
-            // A pass's queue, best first within the budget: the blocks where the pass stopped
-            // first (what the next pass needs to go on), then the rest in ascending block order,
-            // as an SD card (or a disk) serves a forward sweep best. Nothing the pass kept is
-            // evicted for them.
-            let mut batch: Vec<(bool, u32), QUEUE_CAPACITY> = Vec::new();
-            while left >= bs {
-                let Some((b, priority)) = self.pop_best() else {
-                    break;
-                };
-                if batch.push((priority != ROOT_PRIORITY, b as u32)).is_err() {
-                    break;
-                }
-                left -= bs;
-            }
-            batch.sort_unstable();
-            for &(later, b) in &batch {
-                if self
-                    .load(src, b as usize, Evict::Pass, &mut report)
-                    .is_none()
-                    && !later
-                {
-                    report.no_room += 1;
-                }
-            }
-            return report;
-        }
-        while left >= bs {
-            let (b, mode) = match self.pop_best() {
-                Some((b, _)) => (b, Evict::Demand),
-                None if self.missing == 0 => match self.next_prefetch() {
-                    Some(b) => (b, Evict::Prefetch),
-                    None => break,
-                },
-                None => break,
-            };
-            match self.load(src, b, mode, &mut report) {
-                Some(()) => left -= bs,
-                None if mode == Evict::Prefetch => break,
-                None => report.no_room += 1,
-            }
-        }
-        report
-    }
-
-    /// Reads block `b` into a slot the eviction policy gives (`None`: it gives none) and checks it;
-    /// a damaged or failed block stays absent and waits out a backoff.
-    fn load<C: ChunkSource + ?Sized>(
-        &mut self,
-        src: &mut C,
-        b: usize,
-        mode: Evict,
-        report: &mut ServeReport,
-    ) -> Option<()> {
-        let bs = self.header.block_size();
-        let class = self.cache.blocks[b].class;
-        let prefetch = mode == Evict::Prefetch;
-        let s = self.cache.victim(class, self.frame, mode)?;
-        if self.cache.evict(s) {
-            self.counters.evictions += 1;
-        }
-        report.reads += 1;
-        report.bytes += bs as u32;
-        report.prefetched += u32::from(prefetch);
-        self.counters.reads += 1;
-        self.counters.bytes_read += bs as u64;
-        self.counters.prefetched += u32::from(prefetch);
-        let want = self.cache.blocks[b].crc;
-        let buf = self.cache.slot_bytes(s);
-        let ok = match src.read_at((b as u64) * bs as u64, buf) {
-            Err(_) => {
-                self.counters.read_errors += 1;
-                false
-            }
-            Ok(()) if crc32(buf) != want => {
-                self.counters.crc_errors += 1;
-                false
-            }
-            // Sealed but malformed: absent, exactly as a damaged block (issue 17).
-            Ok(()) if check_block(&self.header, &self.dirs, b as u32, buf).is_err() => {
-                self.counters.structure_errors += 1;
-                false
-            }
-            Ok(()) => true,
+        let (header, dirs) = (self.header, self.dirs);
+        let first = header.crc_table_blocks as usize + 1;
+        let mut feed = Feed {
+            cache: &mut self.cache,
+            queue: &mut self.queue,
+            counters: &mut self.counters,
+            frame: self.frame,
+            block_size: header.block_size(),
+            file_len: u64::from(header.blocks) << header.block_log2,
         };
-        if ok {
-            self.cache.install(s, b, self.frame);
-        } else {
-            report.failed += 1;
-            let e = &mut self.cache.blocks[b];
-            e.fails = e.fails.saturating_add(1);
-            let backoff = (1u32 << u32::from(e.fails).min(6)).min(MAX_BACKOFF);
-            e.retry_at = self.frame.wrapping_add(backoff);
-        }
-        Some(())
-    }
-
-    /// Whether block `b` may be read now (not waiting out a backoff).
-    fn ready(&self, e: &BlockEntry) -> bool {
-        e.retry_at == 0 || self.frame >= e.retry_at
-    }
-
-    /// Removes and returns the best queued block that may be read now, with its priority.
-    fn pop_best(&mut self) -> Option<(usize, u32)> {
-        let mut best: Option<(usize, u32)> = None;
-        for (i, r) in self.queue.iter().enumerate() {
-            let e = &self.cache.blocks[r.block as usize];
-            if e.slot == NO_SLOT && self.ready(e) && best.is_none_or(|(_, p)| r.priority > p) {
-                best = Some((i, r.priority));
-            }
-        }
-        let (i, _) = best?;
-        let r = self.queue.swap_remove(i);
-        self.cache.blocks[r.block as usize].queued = NOT_QUEUED;
-        if let Some(moved) = self.queue.get(i) {
-            self.cache.blocks[moved.block as usize].queued = i as u16;
-        }
-        Some((r.block as usize, r.priority))
-    }
-
-    /// The first absent data block in file order (coarse levels first) that may be read now.
-    fn next_prefetch(&self) -> Option<usize> {
-        let first = self.header.crc_table_blocks as usize + 1;
-        (first..self.cache.blocks.len()).find(|&b| {
-            let e = &self.cache.blocks[b];
-            e.slot == NO_SLOT && self.ready(e)
-        })
+        feed.serve(
+            src,
+            budget_bytes,
+            self.passing,
+            self.missing,
+            // The data blocks in file order: coarse levels first.
+            |cache, frame| first_absent(cache, first, frame),
+            |b, entry, buf| {
+                if crc32(buf) != entry.crc {
+                    Verdict::Crc
+                } else if check_block(&header, &dirs, b as u32, buf).is_err() {
+                    Verdict::Structure
+                } else {
+                    Verdict::Good
+                }
+            },
+        )
     }
 }

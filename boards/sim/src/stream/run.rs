@@ -1,14 +1,17 @@
-//! The streaming frame loop on the desktop: memory for a [`TgStream`], one frame drawn from what is
-//! resident, and `render --stream` (draw, serve the budget, repeat until a frame misses nothing).
+//! The streaming frame loop on the desktop: memory for a [`TgStream`] or a [`QsStream`], one frame
+//! drawn from what is resident, and `render --stream` (draw, serve the budget, repeat until a frame
+//! misses nothing), the same loop for both formats ([`Streamed`]).
 
 use anyhow::{bail, Context, Result};
 use pocketsplat_core::camera::Camera;
-use pocketsplat_core::render::{render_stream, StreamPass};
+use pocketsplat_core::camera::Sphere;
+use pocketsplat_core::format::QS_MAGIC;
+use pocketsplat_core::render::{render_qs_stream, render_stream, StreamPass};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
-    read_tg_header, BlockEntry, ChunkSource, ServeReport, SlotEntry, StreamCounters, StreamError,
-    TgStream,
+    read_tg_header, BlockCache, BlockEntry, ChunkSource, QsStream, ServeReport, SlotEntry,
+    StreamCounters, StreamError, TgStream,
 };
 use pocketsplat_core::tg::Header;
 
@@ -127,44 +130,219 @@ impl OwnedStream {
     }
 }
 
+/// Blocks of a streamed `.qs` file: 512 bytes, an SD card's sector (a sibling group is at most 28
+/// bytes, so a group lies in one block or two).
+pub const QS_BLOCK_LOG2: u8 = 9;
+
+/// Heap memory for a [`QsStream`].
+#[derive(Debug)]
+pub struct OwnedQsStream {
+    data: Vec<u8>,
+    slots: Vec<SlotEntry>,
+    blocks: Vec<BlockEntry>,
+    /// Bytes in the file.
+    pub file_len: u64,
+}
+
+impl OwnedQsStream {
+    /// A cache of `cache_bytes` (whole 512-byte blocks) and one table entry per block of the
+    /// `.qs` file on `src`, whose length the source must know.
+    ///
+    /// # Errors
+    /// When the source does not know the file's length, the file is over the `stream` limit, or
+    /// the memory cannot be had.
+    pub fn new<C: ChunkSource + ?Sized>(src: &mut C, cache_bytes: usize) -> Result<Self> {
+        let file_len = src
+            .byte_len()
+            .context("the source does not say how long the file is (a .qs stream needs it)")?;
+        crate::limits::current().check("stream", "the file size", file_len)?;
+        let bs = 1usize << QS_BLOCK_LOG2;
+        let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
+        let blocks = usize::try_from(file_len.div_ceil(bs as u64))?;
+        let memory = || -> Result<Self> {
+            Ok(Self {
+                data: crate::memory::filled(0u8, slots * bs)?,
+                slots: crate::memory::filled(SlotEntry::EMPTY, slots)?,
+                blocks: crate::memory::filled(BlockEntry::EMPTY, blocks)?,
+                file_len,
+            })
+        };
+        memory().context("cannot allocate the block cache and the table of blocks")
+    }
+
+    /// Opens the stream over this memory.
+    ///
+    /// # Errors
+    /// When a fragment header cannot be read or is invalid.
+    pub fn open<C: ChunkSource + ?Sized>(&mut self, src: &mut C) -> Result<QsStream<'_>> {
+        QsStream::open(
+            src,
+            QS_BLOCK_LOG2,
+            &mut self.data,
+            &mut self.slots,
+            &mut self.blocks,
+        )
+        .map_err(|e| anyhow::anyhow!("{e}"))
+    }
+}
+
+/// What the frame loop needs of a stream, whatever its format.
+pub trait Streamed {
+    /// The camera of `settings` for the stream's model.
+    fn camera(&self, settings: &Settings) -> Camera;
+    /// Draws a frame from what is resident, or a pass of a refined frame, into `out`.
+    ///
+    /// # Errors
+    /// When the frame cannot be set up or asks for what streams do not draw (shadows).
+    fn draw(
+        &mut self,
+        cam: &Camera,
+        settings: &Settings,
+        table: &mut ShadingTable<1>,
+        out: &mut FrameBuffers,
+        pass: StreamPass,
+    ) -> Result<Stats>;
+    /// Reads what the last frame asked for, within `budget` bytes.
+    fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport;
+    /// Whether the last frame missed nothing.
+    fn converged(&self) -> bool;
+    /// Whether the last pass finished its refined frame.
+    fn refined_done(&self) -> bool;
+    /// Passes of the refined frame.
+    fn passes(&self) -> u32;
+    /// Blocks the last frame used and queued.
+    fn working_set(&self) -> u32;
+    /// The block cache.
+    fn block_cache(&self) -> &BlockCache<'_>;
+    /// Cumulative counts.
+    fn stream_counters(&self) -> StreamCounters;
+    /// What the last frame missed.
+    fn missing(&self) -> u32;
+    /// Descents the last frame refused as malformed.
+    fn inconsistent(&self) -> u32;
+    /// The fewest blocks the cache must hold.
+    fn cache_need(&self) -> u32;
+    /// What a refused descent of this format means, for the error that says the file is
+    /// malformed.
+    fn refused_means(&self) -> &'static str;
+}
+
+impl Streamed for TgStream<'_> {
+    fn camera(&self, settings: &Settings) -> Camera {
+        camera_for(self, settings)
+    }
+    fn draw(
+        &mut self,
+        cam: &Camera,
+        settings: &Settings,
+        table: &mut ShadingTable<1>,
+        out: &mut FrameBuffers,
+        pass: StreamPass,
+    ) -> Result<Stats> {
+        draw(self, cam, settings, table, out, pass)
+    }
+    fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport {
+        TgStream::serve(self, src, budget)
+    }
+    fn converged(&self) -> bool {
+        TgStream::converged(self)
+    }
+    fn refined_done(&self) -> bool {
+        TgStream::refined_done(self)
+    }
+    fn passes(&self) -> u32 {
+        TgStream::passes(self)
+    }
+    fn working_set(&self) -> u32 {
+        TgStream::working_set(self)
+    }
+    fn block_cache(&self) -> &BlockCache<'_> {
+        self.cache()
+    }
+    fn stream_counters(&self) -> StreamCounters {
+        *self.counters()
+    }
+    fn missing(&self) -> u32 {
+        TgStream::missing(self)
+    }
+    fn inconsistent(&self) -> u32 {
+        TgStream::inconsistent(self)
+    }
+    fn cache_need(&self) -> u32 {
+        TgStream::cache_need(self)
+    }
+    fn refused_means(&self) -> &'static str {
+        "children outside their level, sibling groups that overlap, run backwards or do not add up"
+    }
+}
+
+impl Streamed for QsStream<'_> {
+    fn camera(&self, settings: &Settings) -> Camera {
+        settings.camera(Sphere::from_bounds(self.bounds()))
+    }
+    fn draw(
+        &mut self,
+        cam: &Camera,
+        settings: &Settings,
+        table: &mut ShadingTable<1>,
+        out: &mut FrameBuffers,
+        pass: StreamPass,
+    ) -> Result<Stats> {
+        if settings.shadows != ShadowMode::Off {
+            bail!("a .qs file has no shadows");
+        }
+        let options = settings.render_options(None);
+        let levels = settings
+            .color_by_level
+            .then(|| Levels::of_stream(settings.cutoff_px));
+        let mut layer = match &levels {
+            Some(l) => Layers::Tinted(Tinted(l)),
+            None => Layers::Direct,
+        };
+        let mut target = out.target(table, None);
+        let drawn = render_qs_stream(self, cam, &options, &mut target, pass, &mut layer, |_| {})
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        Ok(drawn.stats)
+    }
+    fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport {
+        QsStream::serve(self, src, budget)
+    }
+    fn converged(&self) -> bool {
+        QsStream::converged(self)
+    }
+    fn refined_done(&self) -> bool {
+        QsStream::refined_done(self)
+    }
+    fn passes(&self) -> u32 {
+        QsStream::passes(self)
+    }
+    fn working_set(&self) -> u32 {
+        QsStream::working_set(self)
+    }
+    fn block_cache(&self) -> &BlockCache<'_> {
+        self.cache()
+    }
+    fn stream_counters(&self) -> StreamCounters {
+        *self.counters()
+    }
+    fn missing(&self) -> u32 {
+        QsStream::missing(self)
+    }
+    fn inconsistent(&self) -> u32 {
+        QsStream::inconsistent(self)
+    }
+    fn cache_need(&self) -> u32 {
+        QsStream::cache_need(self)
+    }
+    fn refused_means(&self) -> &'static str {
+        "sibling groups outside their fragment, out of breadth-first order, or with child counts, \
+         sphere indices or pointers the format does not allow"
+    }
+}
+
 /// The camera of `settings` for the stream's model.
 pub fn camera_for(stream: &TgStream<'_>, settings: &Settings) -> Camera {
     settings.camera(stream.header().bounds64)
-}
-
-/// Draws one frame from what is resident into `out` (cleared first), queueing what is missing.
-///
-/// # Errors
-/// When the frame cannot be set up, or shadows are asked for (not streamed yet).
-pub fn stream_frame(
-    stream: &mut TgStream<'_>,
-    cam: &Camera,
-    settings: &Settings,
-    table: &mut ShadingTable<1>,
-    out: &mut FrameBuffers,
-) -> Result<Stats> {
-    draw(stream, cam, settings, table, out, StreamPass::Frame)
-}
-
-/// Draws the next pass of a refined frame ([`TgStream::render_pass`]) into `out`, which is cleared
-/// only for the first pass (`first`): the passes' splats meet in one colour and depth buffer.
-///
-/// # Errors
-/// As [`stream_frame`].
-pub fn stream_pass(
-    stream: &mut TgStream<'_>,
-    cam: &Camera,
-    settings: &Settings,
-    table: &mut ShadingTable<1>,
-    out: &mut FrameBuffers,
-    first: bool,
-) -> Result<Stats> {
-    let pass = if first {
-        StreamPass::FirstPass
-    } else {
-        StreamPass::NextPass
-    };
-    draw(stream, cam, settings, table, out, pass)
 }
 
 /// A streamed frame or pass through the core's pipeline ([`render_stream`]), tinted by level when
@@ -274,13 +452,96 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
     settings: &Settings,
     opts: &StreamOptions,
     out: &mut FrameBuffers,
-    mut before_serve: impl FnMut(&mut C) -> Result<()>,
+    before_serve: impl FnMut(&mut C) -> Result<()>,
 ) -> Result<StreamOutcome> {
-    let mut mem = OwnedStream::new(src, opts.cache_bytes)?;
+    // A `.tg` file by its header, else a `.qs` file by its magic (read only then: a `.tg`
+    // stream reads nothing more than before).
+    let mut mem = match OwnedStream::new(src, opts.cache_bytes) {
+        Ok(mem) => mem,
+        Err(e) => {
+            let mut magic = [0u8; 8];
+            if src.read_at(0, &mut magic).is_err() || magic != QS_MAGIC {
+                return Err(e);
+            }
+            let mut mem = OwnedQsStream::new(src, opts.cache_bytes)?;
+            let file_bytes = mem.file_len;
+            let mut stream = mem.open(src)?;
+            let bs = stream.block_size();
+            return converge(
+                &mut stream,
+                src,
+                settings,
+                opts,
+                out,
+                before_serve,
+                file_bytes,
+                bs,
+            );
+        }
+    };
     let file_bytes = u64::from(mem.header.blocks) << mem.header.block_log2;
-    let mem_block_size = mem.header.block_size();
+    let bs = mem.header.block_size();
     let mut stream = mem.open(src)?;
-    let cam = camera_for(&stream, settings);
+    converge(
+        &mut stream,
+        src,
+        settings,
+        opts,
+        out,
+        before_serve,
+        file_bytes,
+        bs,
+    )
+}
+
+/// Draws one frame from what is resident into `out` (cleared first), queueing what is missing.
+///
+/// # Errors
+/// When the frame cannot be set up, or shadows are asked for (not streamed yet).
+pub fn stream_frame<T: Streamed>(
+    stream: &mut T,
+    cam: &Camera,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+) -> Result<Stats> {
+    stream.draw(cam, settings, table, out, StreamPass::Frame)
+}
+
+/// Draws the next pass of a refined frame into `out`, which is cleared only for the first pass
+/// (`first`): the passes' splats meet in one colour and depth buffer.
+///
+/// # Errors
+/// As [`stream_frame`].
+pub fn stream_pass<T: Streamed>(
+    stream: &mut T,
+    cam: &Camera,
+    settings: &Settings,
+    table: &mut ShadingTable<1>,
+    out: &mut FrameBuffers,
+    first: bool,
+) -> Result<Stats> {
+    let pass = if first {
+        StreamPass::FirstPass
+    } else {
+        StreamPass::NextPass
+    };
+    stream.draw(cam, settings, table, out, pass)
+}
+
+/// The frame loop of [`stream_render_with`] over an open stream of either format.
+#[allow(clippy::too_many_arguments)]
+fn converge<T: Streamed, C: ChunkSource + ?Sized>(
+    stream: &mut T,
+    src: &mut C,
+    settings: &Settings,
+    opts: &StreamOptions,
+    out: &mut FrameBuffers,
+    mut before_serve: impl FnMut(&mut C) -> Result<()>,
+    file_bytes: u64,
+    mem_block_size: usize,
+) -> Result<StreamOutcome> {
+    let cam = stream.camera(settings);
     let mut table = Box::new(ShadingTable::<1>::new());
     let mut outcome = StreamOutcome {
         file_bytes,
@@ -293,14 +554,14 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
     let mut at_refine = StreamCounters::default();
     loop {
         if refining {
-            let s = stream_pass(&mut stream, &cam, settings, &mut table, out, first_pass)?;
+            let s = stream_pass(stream, &cam, settings, &mut table, out, first_pass)?;
             first_pass = false;
             outcome.stats.nodes_visited += s.nodes_visited;
             outcome.stats.splats += s.splats;
             outcome.stats.max_level = outcome.stats.max_level.max(s.max_level);
             outcome.passes = stream.passes();
         } else {
-            outcome.stats = stream_frame(&mut stream, &cam, settings, &mut table, out)?;
+            outcome.stats = stream_frame(stream, &cam, settings, &mut table, out)?;
         }
         outcome.frames += 1;
         if stream.converged() && (!refining || stream.refined_done()) {
@@ -310,19 +571,19 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
         // evicts (it is full) they may take turns evicting what the next one needs, so the frame
         // goes on in passes, which converge through any cache `open` accepted.
         if !refining
-            && (stream.working_set() as usize > stream.cache().capacity()
-                || stream.counters().evictions > 0)
+            && (stream.working_set() as usize > stream.block_cache().capacity()
+                || stream.stream_counters().evictions > 0)
         {
             refining = true;
             first_pass = true;
-            at_refine = *stream.counters();
+            at_refine = stream.stream_counters();
             outcome.stats = Stats::default();
             continue;
         }
         // A block that passed its CRC holds what the file holds: one that fails the structure
         // check, or resident blocks that disagree, fail the same way on every later frame. This
         // frame needs them (a converged one would have stopped above), so it never converges.
-        let c = *stream.counters();
+        let c = stream.stream_counters();
         if c.structure_errors > 0 || stream.inconsistent() > 0 {
             let mut why = Vec::new();
             if c.structure_errors > 0 {
@@ -334,10 +595,10 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
             }
             if stream.inconsistent() > 0 {
                 why.push(format!(
-                    "frame {} refused {} descents into blocks that disagree (children outside \
-                     their level, sibling groups that overlap, run backwards or do not add up)",
+                    "frame {} refused {} descents into blocks that disagree ({})",
                     outcome.frames,
-                    stream.inconsistent()
+                    stream.inconsistent(),
+                    stream.refused_means()
                 ));
             }
             bail!(
@@ -366,28 +627,33 @@ pub fn stream_render_with<C: ChunkSource + ?Sized>(
             if !refining {
                 refining = true;
                 first_pass = true;
-                at_refine = *stream.counters();
+                at_refine = stream.stream_counters();
                 outcome.stats = Stats::default();
                 continue;
             }
             let bs = mem_block_size;
+            let need = stream.cache_need();
+            if need as usize > stream.block_cache().capacity() {
+                // Known as the walk goes down (a `.qs` file says nothing of its depth up front).
+                return Err(too_small(stream.block_cache().capacity() * bs, bs, need));
+            }
             bail!(
                 "a pass found no room in the cache of {} blocks ({} bytes) for the {} blocks it \
                  needs next, so the frame cannot be finished; this file was taken to need {} \
                  blocks (a bug in that bound): try a larger --cache",
-                stream.cache().capacity(),
-                stream.cache().capacity() * bs,
+                stream.block_cache().capacity(),
+                stream.block_cache().capacity() * bs,
                 r.no_room,
                 stream.cache_need()
             );
         }
     }
-    outcome.counters = *stream.counters();
+    outcome.counters = stream.stream_counters();
     if refining {
         outcome.refined_reads = outcome.counters.reads - at_refine.reads;
         outcome.refined_bytes = outcome.counters.bytes_read - at_refine.bytes_read;
     }
-    outcome.resident_blocks = stream.cache().resident();
-    outcome.cache_blocks = stream.cache().capacity();
+    outcome.resident_blocks = stream.block_cache().resident();
+    outcome.cache_blocks = stream.block_cache().capacity();
     Ok(outcome)
 }

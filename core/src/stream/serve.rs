@@ -1,0 +1,247 @@
+//! Reading what a frame asked for, the same for every streamed format (Streaming QSplat §3.4): the
+//! request queue (a block's priority is its best node's; a full queue keeps the best), the reads of
+//! one [`serve`](crate::stream::TgStream::serve) within its byte budget, the check of each block as
+//! it arrives, and the backoff of a block that failed.
+
+use heapless::Vec;
+
+use super::cache::{BlockCache, BlockEntry, Evict, NOT_QUEUED, NO_SLOT};
+use super::nodes::Request;
+use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
+use super::tg::{ServeReport, StreamCounters};
+use super::ChunkSource;
+
+/// Longest backoff after repeated failures, frames.
+const MAX_BACKOFF: u32 = 64;
+
+/// What the format's check says of a block that arrived.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    /// Its bytes are the file's, as far as the format can tell.
+    Good,
+    /// It fails its CRC.
+    Crc,
+    /// Its CRC is right (or it has none) but its structure is not.
+    Structure,
+}
+
+/// A stream's cache, queue and counts, borrowed for one serve or one descent's requests.
+pub(crate) struct Feed<'s, 'a> {
+    pub cache: &'s mut BlockCache<'a>,
+    pub queue: &'s mut Vec<Request, QUEUE_CAPACITY>,
+    pub counters: &'s mut StreamCounters,
+    /// The frame being served (the last one drawn).
+    pub frame: u32,
+    /// Bytes per block.
+    pub block_size: usize,
+    /// Bytes in the file (its last block may be short).
+    pub file_len: u64,
+}
+
+/// Queues block `b` of `cache` with `priority`, raising it if already queued (a block's priority is
+/// its best node's, §3.4); when the queue is full the lowest request makes room or this one is
+/// dropped (counted in `dropped`). Returns whether the block was newly queued.
+pub(crate) fn push(
+    cache: &mut BlockCache<'_>,
+    queue: &mut Vec<Request, QUEUE_CAPACITY>,
+    dropped: &mut u32,
+    b: usize,
+    priority: u32,
+) -> bool {
+    let Some(e) = cache.blocks.get(b) else {
+        *dropped += 1; // outside the file: a damaged directory or pointer; never converges
+        return false;
+    };
+    if e.slot != NO_SLOT {
+        return false;
+    }
+    if e.queued != NOT_QUEUED {
+        let r = &mut queue[usize::from(e.queued)];
+        r.priority = r.priority.max(priority);
+        return false;
+    }
+    let req = Request {
+        priority,
+        block: b as u32,
+    };
+    if queue.push(req).is_ok() {
+        cache.blocks[b].queued = (queue.len() - 1) as u16;
+        return true;
+    }
+    let (i, low) = queue
+        .iter()
+        .enumerate()
+        .min_by_key(|(_, r)| r.priority)
+        .map(|(i, r)| (i, *r))
+        .expect("a full queue is not empty");
+    *dropped += 1;
+    if priority > low.priority {
+        cache.blocks[low.block as usize].queued = NOT_QUEUED;
+        queue[i] = req;
+        cache.blocks[b].queued = i as u16;
+    }
+    false
+}
+
+/// Empties the queue (a new frame asks afresh, §3.4).
+pub(crate) fn clear_queue(cache: &mut BlockCache<'_>, queue: &mut Vec<Request, QUEUE_CAPACITY>) {
+    for r in queue.iter() {
+        if let Some(e) = cache.blocks.get_mut(r.block as usize) {
+            e.queued = NOT_QUEUED;
+        }
+    }
+    queue.clear();
+}
+
+impl Feed<'_, '_> {
+    /// Reads queued blocks, best first, until `budget_bytes` are spent (at least one block per
+    /// call); when the last frame missed nothing (`missing == 0`), prefetches what `prefetch`
+    /// names into free room. After a pass (`passing`), reads its queue in ascending block order,
+    /// the pass's stop first, evicting nothing the pass kept. `check` judges each block that
+    /// arrives: one that fails stays absent and waits out a backoff before being read again.
+    pub(crate) fn serve<C: ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        budget_bytes: u32,
+        passing: bool,
+        missing: u32,
+        mut prefetch: impl FnMut(&BlockCache<'_>, u32) -> Option<usize>,
+        mut check: impl FnMut(usize, &BlockEntry, &[u8]) -> Verdict,
+    ) -> ServeReport {
+        let bs = self.block_size;
+        let mut left = (budget_bytes as usize).max(bs);
+        let mut report = ServeReport::default();
+        if passing {
+            // A pass's queue, best first within the budget: the blocks where the pass stopped
+            // first (what the next pass needs to go on), then the rest in ascending block order,
+            // as an SD card (or a disk) serves a forward sweep best. Nothing the pass kept is
+            // evicted for them.
+            let mut batch: Vec<(bool, u32), QUEUE_CAPACITY> = Vec::new();
+            while left >= bs {
+                let Some((b, priority)) = self.pop_best() else {
+                    break;
+                };
+                if batch.push((priority != ROOT_PRIORITY, b as u32)).is_err() {
+                    break;
+                }
+                left -= bs;
+            }
+            batch.sort_unstable();
+            for &(later, b) in &batch {
+                if self
+                    .load(src, b as usize, Evict::Pass, &mut report, &mut check)
+                    .is_none()
+                    && !later
+                {
+                    report.no_room += 1;
+                }
+            }
+            return report;
+        }
+        while left >= bs {
+            let (b, mode) = match self.pop_best() {
+                Some((b, _)) => (b, Evict::Demand),
+                None if missing == 0 => match prefetch(self.cache, self.frame) {
+                    Some(b) => (b, Evict::Prefetch),
+                    None => break,
+                },
+                None => break,
+            };
+            match self.load(src, b, mode, &mut report, &mut check) {
+                Some(()) => left -= bs,
+                None if mode == Evict::Prefetch => break,
+                None => report.no_room += 1,
+            }
+        }
+        report
+    }
+
+    /// Reads block `b` into a slot the eviction policy gives (`None`: it gives none) and checks it;
+    /// a damaged or failed block stays absent and waits out a backoff.
+    fn load<C: ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        b: usize,
+        mode: Evict,
+        report: &mut ServeReport,
+        check: &mut impl FnMut(usize, &BlockEntry, &[u8]) -> Verdict,
+    ) -> Option<()> {
+        let bs = self.block_size;
+        let class = self.cache.blocks[b].class;
+        let prefetch = mode == Evict::Prefetch;
+        let s = self.cache.victim(class, self.frame, mode)?;
+        if self.cache.evict(s) {
+            self.counters.evictions += 1;
+        }
+        report.reads += 1;
+        report.bytes += bs as u32;
+        report.prefetched += u32::from(prefetch);
+        self.counters.reads += 1;
+        self.counters.bytes_read += bs as u64;
+        self.counters.prefetched += u32::from(prefetch);
+        let entry = self.cache.blocks[b];
+        let at = (b as u64) * bs as u64;
+        let n = self.file_len.saturating_sub(at).min(bs as u64) as usize;
+        let buf = &mut self.cache.slot_bytes(s)[..n];
+        let ok = match src.read_at(at, buf) {
+            Err(_) => {
+                self.counters.read_errors += 1;
+                false
+            }
+            Ok(()) => match check(b, &entry, buf) {
+                Verdict::Good => true,
+                Verdict::Crc => {
+                    self.counters.crc_errors += 1;
+                    false
+                }
+                // Sealed but malformed: absent, exactly as a damaged block (issue 17).
+                Verdict::Structure => {
+                    self.counters.structure_errors += 1;
+                    false
+                }
+            },
+        };
+        if ok {
+            self.cache.install(s, b, self.frame);
+        } else {
+            report.failed += 1;
+            let e = &mut self.cache.blocks[b];
+            e.fails = e.fails.saturating_add(1);
+            let backoff = (1u32 << u32::from(e.fails).min(6)).min(MAX_BACKOFF);
+            e.retry_at = self.frame.wrapping_add(backoff);
+        }
+        Some(())
+    }
+
+    /// Removes and returns the best queued block that may be read now, with its priority.
+    fn pop_best(&mut self) -> Option<(usize, u32)> {
+        let mut best: Option<(usize, u32)> = None;
+        for (i, r) in self.queue.iter().enumerate() {
+            let e = &self.cache.blocks[r.block as usize];
+            if e.slot == NO_SLOT && ready(e, self.frame) && best.is_none_or(|(_, p)| r.priority > p)
+            {
+                best = Some((i, r.priority));
+            }
+        }
+        let (i, _) = best?;
+        let r = self.queue.swap_remove(i);
+        self.cache.blocks[r.block as usize].queued = NOT_QUEUED;
+        if let Some(moved) = self.queue.get(i) {
+            self.cache.blocks[moved.block as usize].queued = i as u16;
+        }
+        Some((r.block as usize, r.priority))
+    }
+}
+
+/// Whether a block may be read in frame `frame` (not waiting out a backoff).
+pub(crate) fn ready(e: &BlockEntry, frame: u32) -> bool {
+    e.retry_at == 0 || frame >= e.retry_at
+}
+
+/// The first absent block from `first` on, in file order, that may be read in frame `frame`.
+pub(crate) fn first_absent(cache: &BlockCache<'_>, first: usize, frame: u32) -> Option<usize> {
+    (first..cache.blocks.len()).find(|&b| {
+        let e = &cache.blocks[b];
+        e.slot == NO_SLOT && ready(e, frame)
+    })
+}
