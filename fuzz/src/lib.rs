@@ -9,11 +9,11 @@ use std::sync::OnceLock;
 use pocketsplat_core::bake::{BakeOptions, TriMesh};
 use pocketsplat_core::camera::{Placement, View};
 use pocketsplat_core::raster::Kernel;
+use pocketsplat_core::render::Model;
+use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::NullSink;
-use pocketsplat_core::render::RenderOptions;
 use pocketsplat_core::tg::{render_tg, TgFrame, TriGrid, Verify};
-use pocketsplat_core::render::Model;
 use pocketsplat_sim::render::{render_with, FrameBuffers, Settings, ShadowMode};
 
 /// Smallest block (512 B) keeps the files, and so the fuzzer's inputs, small.
@@ -58,13 +58,9 @@ pub fn base_files_at(log2: u8) -> &'static [Vec<u8>] {
         .into_iter()
         .map(|(materials, colors, rho, depth)| {
             let mesh = trefoil(materials, colors);
-            let (_, bytes) = pocketsplat_sim::bake::bake_mesh(
-                &mesh,
-                BakeOptions { rho, depth },
-                log2,
-                false,
-            )
-            .expect("the trefoil bakes");
+            let (_, bytes) =
+                pocketsplat_sim::bake::bake_mesh(&mesh, BakeOptions { rho, depth }, log2, false)
+                    .expect("the trefoil bakes");
             bytes
         })
         .collect()
@@ -305,7 +301,10 @@ pub fn qs_open_and_render(bytes: &[u8], looks: &[Look]) {
             let Ok(again) = render_with(&model, &settings, &cam, table, fb, |_, _| {}) else {
                 return;
             };
-            assert_eq!(again.stats, stats, "the raster changes what the traversal visits");
+            assert_eq!(
+                again.stats, stats,
+                "the raster changes what the traversal visits"
+            );
         });
     }
 }
@@ -373,7 +372,7 @@ pub fn pack_base_files() -> &'static [Vec<u8>] {
 /// renders what opens from its first view and its path's middle, without shadows and with the
 /// pack's, checking the traversal's bounds per object.
 pub fn pack_open_and_render(bytes: &[u8]) {
-    use pocketsplat_core::scene::{render_scene, Pack, ShadowMode, Scene};
+    use pocketsplat_core::scene::{render_scene, Pack, Scene, ShadowMode};
     let Ok(pack) = Pack::open(bytes) else {
         return;
     };
@@ -460,6 +459,9 @@ impl pocketsplat_core::stream::ChunkSource for FlakySource<'_> {
             }
         }
     }
+    fn byte_len(&self) -> Option<u64> {
+        Some(self.bytes.len() as u64)
+    }
 }
 
 /// Streams `bytes` through `script`'s flaky medium for up to `frames` frames with `budget` bytes of
@@ -538,6 +540,93 @@ pub fn stream_checked(
             assert!(
                 streamed == resident.pixels(),
                 "converged stream differs from {what}"
+            );
+        }
+    });
+}
+
+/// Streams `bytes` as a `.qs` file through `script`'s flaky medium (a read that would come back
+/// with a flipped bit fails instead: the format has no CRCs to catch it, FORMAT.md "Streaming"),
+/// drawing whole frames and then, once the cache evicts, a refined frame in passes, for up to
+/// `frames` frames with `budget` bytes per frame and a `cache_bytes` cache. Each frame or pass
+/// visits at most one node per 4 bytes of the file; a refined frame that completes on a file that
+/// opens resident ends on exactly the resident frame.
+pub fn qs_stream_checked(
+    bytes: &[u8],
+    script: &[u8],
+    look: &Look,
+    frames: u32,
+    budget: u32,
+    cache_bytes: usize,
+) {
+    use pocketsplat_core::qs::QSplat;
+    use pocketsplat_sim::stream::run::{stream_frame, stream_pass, OwnedQsStream, Streamed};
+    let mut settings = look.settings();
+    settings.shadows = ShadowMode::Off;
+    let script: Vec<u8> = script
+        .iter()
+        .map(|&op| if op & 3 == 2 { op | 1 } else { op })
+        .collect();
+    let mut src = FlakySource {
+        bytes,
+        script: &script,
+        reads: 0,
+    };
+    let Ok(mut mem) = OwnedQsStream::new(&mut src, cache_bytes) else {
+        return;
+    };
+    let Ok(mut stream) = mem.open(&mut src) else {
+        return;
+    };
+    let bound = bytes.len() as u64 / 4 + stream.trees().len() as u64;
+    let cam = stream.camera(&settings);
+    RASTER.with_borrow_mut(|(fb, table)| {
+        let mut refining = false;
+        let mut first = true;
+        let mut done = false;
+        for _ in 0..frames {
+            let stats = if refining {
+                let s = stream_pass(&mut stream, &cam, &settings, table, fb, first);
+                first = false;
+                s
+            } else {
+                stream_frame(&mut stream, &cam, &settings, table, fb)
+            };
+            let Ok(stats) = stats else {
+                return;
+            };
+            assert!(
+                u64::from(stats.nodes_visited) <= bound,
+                "{stats:?} > {bound}"
+            );
+            if refining && stream.refined_done() {
+                done = stream.converged();
+                break;
+            }
+            if !refining && stream.stream_counters().evictions > 0 {
+                refining = true;
+                continue;
+            }
+            if !refining && stream.converged() {
+                done = true;
+                break;
+            }
+            Streamed::serve(&mut stream, &mut src, budget);
+        }
+        if !done {
+            return;
+        }
+        let Ok(file) = QSplat::open(bytes) else {
+            return;
+        };
+        let streamed = fb.pixels().to_vec();
+        let mut resident = FrameBuffers::new();
+        let model = Model::QSplat(file);
+        let cam = settings.camera_for(&model);
+        if render_with(&model, &settings, &cam, table, &mut resident, |_, _| {}).is_ok() {
+            assert!(
+                streamed == resident.pixels(),
+                "converged stream differs from the resident frame"
             );
         }
     });

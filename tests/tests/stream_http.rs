@@ -275,3 +275,63 @@ fn the_dragon_streams_from_nginx_and_converges_to_the_local_file_frame() {
         http.counters.connections
     );
 }
+
+/// Streaming QSplat over HTTP (issue 31; Streaming QSplat §3): the dragon baked to `.qs`, as
+/// pocketsplat writes it and as QSplat 1.0 lays it out (little-endian header and pointers, no
+/// comment), served by nginx as it is, streams through a 64 KB cache at a 1 px cutoff to the
+/// resident frame, as the local file does; prints blocks, requests and bytes.
+#[test]
+fn the_qsplat_dragon_streams_from_nginx_to_the_resident_frame() {
+    let Some(bin) = nginx() else {
+        return;
+    };
+    let Some(path) = model("dragon_vrip.ply.gz") else {
+        return;
+    };
+    let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
+    let ours = pocketsplat_core::qs::write::bake_qs(&mesh, &Default::default())
+        .unwrap()
+        .bytes;
+    let original = pocketsplat_core::qs::write::qsplat1_layout(&ours, true).unwrap();
+    let root = tempfile::tempdir().unwrap();
+    let server = start_nginx(&bin, root.path());
+    let opts = StreamOptions {
+        cache_bytes: 64 * 1024,
+        max_frames: 100_000,
+        ..StreamOptions::default()
+    };
+    eprintln!("file             | view  | frames | passes | requests | body bytes | of file");
+    for (name, bytes) in [("dragon.qs", &ours), ("dragon-1.0-le.qs", &original)] {
+        let local = root.path().join(name);
+        std::fs::write(&local, bytes).unwrap();
+        let url = format!("http://127.0.0.1:{}/{name}", server.port);
+        let file = pocketsplat_core::qs::QSplat::open(bytes).unwrap();
+        for view in ["std", "close"] {
+            let settings = Settings {
+                view: pocketsplat_core::camera::standard_view(view).unwrap(),
+                cutoff_px: 1.0,
+                ..Settings::default()
+            };
+            let mut want = FrameBuffers::new();
+            pocketsplat_sim::qsplat::render_qs_frame(&file, &settings, &mut want).unwrap();
+            let mut fb = FrameBuffers::new();
+            let mut f = FileSource::open(&local).unwrap();
+            stream_render(&mut f, &settings, &opts, &mut fb).unwrap();
+            assert_eq!(fb.crc(), want.crc(), "{name} {view}: file stream differs");
+            let mut http = HttpSource::new(&url).unwrap();
+            let mut fb = FrameBuffers::new();
+            let out = stream_render(&mut http, &settings, &opts, &mut fb).unwrap();
+            assert_eq!(fb.crc(), want.crc(), "{name} {view}: HTTP stream differs");
+            let c = http.counters;
+            assert_eq!(c.connections, 1, "{name} {view}: one persistent connection");
+            eprintln!(
+                "{name:16} | {view:5} | {:6} | {:6} | {:8} | {:10} | {:5.1} %",
+                out.frames,
+                out.passes,
+                c.requests,
+                c.body,
+                100.0 * c.body as f64 / bytes.len() as f64
+            );
+        }
+    }
+}

@@ -326,7 +326,7 @@ pub fn open_stream<'a, C: ChunkSource + ?Sized>(
             StreamError::Format(TgError::NotStreamable { version }) => {
                 LoadError::OldVersion(version)
             }
-            StreamError::Format(_) | StreamError::CacheTooSmall { .. } => LoadError::Invalid,
+            _ => LoadError::Invalid,
         }
     })
 }

@@ -473,7 +473,10 @@ fn streamed_qs(dir: &Path, file: &str, cache: &str, view: &str) -> Result<Vec<u8
         Ok(std::fs::read(&out).unwrap())
     } else {
         assert!(!out.exists(), "{args:?} failed and left its PNG: {err}");
-        assert!(err.contains(file), "{args:?}: the error names no file: {err}");
+        assert!(
+            err.contains(file),
+            "{args:?}: the error names no file: {err}"
+        );
         Err(err)
     }
 }
@@ -492,10 +495,7 @@ fn qsplat_files_stream_to_the_resident_frame_in_either_layout() {
     let mesh = mesh.to_string_lossy().into_owned();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &["bake", &mesh, "-o", "dragon.qs", "--format", "qsplat"],
-    );
+    succeeds(d, &["bake", &mesh, "-o", "dragon.qs", "--format", "qsplat"]);
     let ours = std::fs::read(d.join("dragon.qs")).unwrap();
     for (name, little) in [("dragon-1.0.qs", false), ("dragon-1.0-le.qs", true)] {
         let bytes = pocketsplat_core::qs::write::qsplat1_layout(&ours, little).unwrap();
@@ -505,7 +505,9 @@ fn qsplat_files_stream_to_the_resident_frame_in_either_layout() {
         for view in ["std", "close"] {
             succeeds(
                 d,
-                &["render", file, "-o", "r.png", "--view", view, "--cutoff", "1"],
+                &[
+                    "render", file, "-o", "r.png", "--view", view, "--cutoff", "1",
+                ],
             );
             let want = std::fs::read(d.join("r.png")).unwrap();
             let err = streamed_qs(d, file, SMALLEST_CACHE, view).unwrap_err();

@@ -54,7 +54,7 @@ impl RenderArgs {
 /// Streaming: `render --stream` and its budgets.
 #[derive(Debug, clap::Args)]
 pub struct StreamArgs {
-    /// Read the `.tg` file (a path, or an `http://` URL served with byte ranges) in blocks
+    /// Read the `.tg` or `.qs` file (a path, or an `http://` URL served with byte ranges) in blocks
     /// through a block cache, as a handheld reads an SD card, drawing frames until one misses
     /// nothing; write that frame. Without shadows.
     #[arg(long)]
@@ -84,7 +84,7 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
     if pocketsplat_sim::input::is_pack(input) {
         if args.stream.stream {
             bail!(
-                "{}: --stream reads one .tg file (a path or an http:// URL); a scene pack \
+                "{}: --stream reads one .tg or .qs file (a path or an http:// URL); a scene pack \
                  cannot be streamed yet: render it without --stream",
                 input.display()
             );

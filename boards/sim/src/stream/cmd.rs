@@ -1,4 +1,4 @@
-//! `pocketsplat render INPUT --stream`: draw a `.tg` file or URL through the block cache, reading at
+//! `pocketsplat render INPUT --stream`: draw a `.tg` or `.qs` file or URL through the block cache, reading at
 //! most `--io-budget` bytes per frame, until a frame misses nothing; write that frame.
 
 use std::path::Path;
@@ -16,8 +16,8 @@ use crate::render::Settings;
 /// The `render --stream` command: `input` is a path or an `http://` URL.
 ///
 /// # Errors
-/// When the input cannot be opened or read, is not a `.tg` file, or does not converge; no output is
-/// written then.
+/// When the input cannot be opened or read, is neither a `.tg` nor a `.qs` file, or does not
+/// converge; no output is written then.
 pub fn run(
     input: &str,
     out: &Path,
@@ -64,7 +64,7 @@ pub fn run(
     } = &outcome;
     if stats_json {
         let mut j = json!({
-            "input": input, "renderer": "tg-stream", "frames": frames,
+            "input": input, "renderer": "stream", "frames": frames,
             "bytes_read": c.bytes_read, "file_bytes": file_bytes,
             "read_errors": c.read_errors, "crc_errors": c.crc_errors, "evictions": c.evictions,
             "cache_blocks": outcome.cache_blocks, "resident_blocks": outcome.resident_blocks, "io_budget": opts.io_budget,
