@@ -316,7 +316,6 @@ impl<'a> Tree<'a> {
         };
         Children(Records {
             bytes: self.bytes,
-            base: 0,
             color: self.color,
             at: group.first,
             left: group.count,
@@ -438,12 +437,38 @@ impl Iterator for Children<'_> {
     }
 }
 
-/// A sibling group's records read from `bytes`, which hold the fragment from offset `base` on: the
-/// whole fragment in place, or one group copied out of a block cache.
+/// Where a group's records are: the whole fragment in place, or one group copied out of a block
+/// cache ([`GroupBytes`]).
+pub(crate) trait RecordBytes {
+    /// The bytes and the index in them of fragment offset `at`.
+    fn at(&self, at: u32) -> (&[u8], usize);
+}
+
+impl RecordBytes for &[u8] {
+    #[inline(always)]
+    fn at(&self, at: u32) -> (&[u8], usize) {
+        (self, at as usize)
+    }
+}
+
+/// One group's bytes copied out of a block cache: the fragment from offset `base` on.
+#[derive(Clone, Debug)]
+pub(crate) struct GroupBytes<const N: usize> {
+    pub(crate) bytes: [u8; N],
+    pub(crate) base: u32,
+}
+
+impl<const N: usize> RecordBytes for GroupBytes<N> {
+    #[inline(always)]
+    fn at(&self, at: u32) -> (&[u8], usize) {
+        (&self.bytes, at.wrapping_sub(self.base) as usize)
+    }
+}
+
+/// A sibling group's records read from `bytes`.
 #[derive(Clone, Debug)]
 pub(crate) struct Records<B> {
     pub(crate) bytes: B,
-    pub(crate) base: u32,
     pub(crate) color: bool,
     /// Offset of the next record in the fragment.
     pub(crate) at: u32,
@@ -453,7 +478,7 @@ pub(crate) struct Records<B> {
     pub(crate) cursor: u32,
 }
 
-impl<B: AsRef<[u8]>> Iterator for Records<B> {
+impl<B: RecordBytes> Iterator for Records<B> {
     type Item = (u32, Node, Option<Group>);
 
     #[inline]
@@ -464,11 +489,8 @@ impl<B: AsRef<[u8]>> Iterator for Records<B> {
         self.left -= 1;
         let at = self.at;
         let nb = if self.color { 6 } else { 4 };
-        let node = node_at(
-            self.bytes.as_ref(),
-            at.wrapping_sub(self.base) as usize,
-            self.color,
-        );
+        let (bytes, i) = self.bytes.at(at);
+        let node = node_at(bytes, i, self.color);
         self.at = at.saturating_add(nb);
         let group = (node.children > 0).then(|| {
             let pointer = node.grandchildren.then_some(self.cursor);

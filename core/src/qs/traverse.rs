@@ -67,7 +67,7 @@ fn walk<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S, colored:
     for tree in file.trees() {
         walk_tree(
             &tree.head(),
-            &mut InPlace(tree),
+            InPlace(tree),
             frame,
             sink,
             colored,
@@ -77,18 +77,19 @@ fn walk<S: ColorSink>(file: &QSplat<'_>, frame: &QsFrame, sink: &mut S, colored:
     stats
 }
 
-/// Draws the tree `head` whose groups `nodes` reads, adding to `stats`.
+/// Draws the tree `head` whose groups `nodes` reads, adding to `stats`; gives `nodes` back.
 pub(crate) fn walk_tree<N: QsNodes, S: ColorSink>(
     head: &TreeHead,
-    nodes: &mut N,
+    nodes: N,
     frame: &QsFrame,
     sink: &mut S,
     colored: bool,
     stats: &mut Stats,
-) {
+) -> N {
     let tf = frame.tree(head);
     let mut w = Walker {
-        head,
+        offset: head.offset,
+        root: head.root,
         nodes,
         tf: &tf,
         frame,
@@ -98,6 +99,7 @@ pub(crate) fn walk_tree<N: QsNodes, S: ColorSink>(
     };
     w.root();
     *stats = w.stats;
+    w.nodes
 }
 
 /// Where a walk reads a tree's sibling groups: the file in memory ([`InPlace`]), or a stream's
@@ -199,9 +201,11 @@ fn normal_q14(index: u16) -> Option<[i32; 3]> {
     })
 }
 
-struct Walker<'t, 'f, 's, N, S> {
-    head: &'t TreeHead,
-    nodes: &'t mut N,
+struct Walker<'f, 's, N, S> {
+    /// The tree's fragment offset and root group.
+    offset: u32,
+    root: Group,
+    nodes: N,
     tf: &'f TreeFrame,
     frame: &'f QsFrame,
     sink: &'s mut S,
@@ -209,7 +213,7 @@ struct Walker<'t, 'f, 's, N, S> {
     colored: bool,
 }
 
-impl<N: QsNodes, S: ColorSink> Walker<'_, '_, '_, N, S> {
+impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
     fn root(&mut self) {
         count!(self.stats.nodes_visited += 1);
         let root = Sphere {
@@ -227,7 +231,7 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, '_, N, S> {
             return;
         };
         let flags = Flags { inside, ..flags };
-        let g = self.head.root;
+        let g = self.root;
         match self.nodes.group(g, 1) {
             Some(records) => self.members(records, &root, 1, flags),
             None => self.nodes.absent(g, 1, None),
@@ -431,7 +435,7 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, '_, N, S> {
             depth,
             attr,
             level,
-            index: self.head.offset + at,
+            index: self.offset + at,
             shadowed: false,
             exact: false,
         }

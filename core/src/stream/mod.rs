@@ -57,7 +57,8 @@ pub use open::{read_tg_header, OPEN_ATTEMPTS};
 pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
 #[cfg(feature = "qsplat")]
 pub use qs::{QsStream, QsStreamWalk, QS_MAX_TREES};
-pub use tg::{ServeReport, StreamCounters, StreamWalk, TgStream};
+pub use serve::{ServeReport, StreamCounters};
+pub use tg::{StreamWalk, TgStream};
 
 use core::cell::Cell;
 

@@ -8,7 +8,7 @@ use heapless::Vec;
 
 use super::cache::{BlockCache, BRICK_BAD, BRICK_OK, NOT_QUEUED};
 use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
-use super::serve::push;
+use super::serve::{push, Phase, Request};
 use crate::tg::brick::{check_brick, Array, Brick, BrickEntry};
 use crate::tg::read::{Header, LevelDir};
 use crate::tg::traverse::NodeData;
@@ -17,13 +17,6 @@ use crate::tg::MAX_LEVELS;
 /// An array the level does not have, or a level in bricks no brick of which is entered: never a
 /// base a level has (array offsets and sizes are even, so a base, wrapped or not, is even).
 pub(crate) const ABSENT: u64 = u64::MAX;
-
-/// A queued block read.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Request {
-    pub priority: u32,
-    pub block: u32,
-}
 
 /// Where a level's arrays are: byte offsets of element 0 as if the level were one array (for a
 /// level in bricks, of the entered brick's slices less their first index's elements, wrapping), or
@@ -74,20 +67,6 @@ impl Refine {
         done: false,
         refused: 0,
     };
-}
-
-/// What a pass does at this point of its walk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Phase {
-    /// A frame drawn whole from what is resident, coarser where blocks are absent.
-    Progressive,
-    /// A pass before its first absent block: skip what earlier passes drew, draw the rest.
-    Draw,
-    /// After the first absent block: draw nothing more, walk on through resident blocks to queue
-    /// the next ones the frame needs, in file order.
-    Lookahead,
-    /// Enough is queued: leave the rest of the frame alone.
-    Done,
 }
 
 /// A pass's walk state ([`super::TgStream::render_pass`]); a progressive frame has

@@ -24,16 +24,16 @@ use core::cell::Cell;
 use heapless::Vec;
 
 use super::cache::{BlockCache, BlockEntry, Evict, SlotEntry, MIN_SLOTS};
-use super::nodes::{Phase, Request};
 use super::open::OPEN_ATTEMPTS;
 use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
-use super::serve::{clear_queue, first_absent, push, Feed, Verdict};
-use super::tg::{ServeReport, StreamCounters};
+use super::serve::{
+    clear_queue, first_absent, push, Feed, Phase, Request, ServeReport, StreamCounters, Verdict,
+};
 use super::{ChunkSource, PassSink, StreamError};
 use crate::bytes::ByteOrder;
 use crate::frame::Walk;
 use crate::qs::read::{
-    node_at, parse_bounds, tree_bounds_by, Group, Records, TreeHead, BOUNDS_DEPTH,
+    node_at, parse_bounds, tree_bounds_by, Group, GroupBytes, Records, TreeHead, BOUNDS_DEPTH,
 };
 use crate::qs::table::SPHERE_COUNT;
 use crate::qs::traverse::{walk_tree, QsNodes};
@@ -509,7 +509,7 @@ impl<'a> QsStream<'a> {
             if nodes.skip(0, t) {
                 continue;
             }
-            walk_tree(head, &mut nodes, frame, sink, true, &mut stats);
+            let nodes = walk_tree(head, nodes, frame, sink, true, &mut stats);
             if nodes.done() {
                 break;
             }
@@ -595,10 +595,17 @@ fn group_cursor(buf: &[u8; GROUP_MAX], g: Group, order: ByteOrder) -> i64 {
 }
 
 /// The records of group `g` copied into `buf`.
-fn records(buf: [u8; GROUP_MAX], g: Group, color: bool, cursor: i64) -> Records<[u8; GROUP_MAX]> {
+fn records(
+    buf: [u8; GROUP_MAX],
+    g: Group,
+    color: bool,
+    cursor: i64,
+) -> Records<GroupBytes<GROUP_MAX>> {
     Records {
-        bytes: buf,
-        base: g.pointer.unwrap_or(g.first),
+        bytes: GroupBytes {
+            bytes: buf,
+            base: g.pointer.unwrap_or(g.first),
+        },
         color,
         at: g.first,
         left: g.count,
@@ -620,7 +627,7 @@ struct ReadNow<'c, 'a, C: ?Sized> {
 
 impl<C: ChunkSource + ?Sized> ReadNow<'_, '_, C> {
     /// Group `g` of tree `head` (`None`: outside its fragment, or a read failed every attempt).
-    fn group(&mut self, head: &TreeHead, g: Group) -> Option<Records<[u8; GROUP_MAX]>> {
+    fn group(&mut self, head: &TreeHead, g: Group) -> Option<Records<GroupBytes<GROUP_MAX>>> {
         let start = g.pointer.unwrap_or(g.first);
         let end = u64::from(g.first) + u64::from(g.count) * u64::from(head.node_bytes());
         if !(2..=4).contains(&g.count) || start < HEADER_BYTES as u32 || end > u64::from(head.len) {
@@ -713,7 +720,7 @@ impl StreamGroups<'_, '_, '_> {
         self.cache.touch(b, stamp)
     }
 
-    fn refuse(&mut self) -> Option<Records<[u8; GROUP_MAX]>> {
+    fn refuse(&mut self) -> Option<Records<GroupBytes<GROUP_MAX>>> {
         *self.refused += 1;
         self.need = None;
         None
@@ -749,11 +756,26 @@ impl StreamGroups<'_, '_, '_> {
                 self.touch(b as usize, k as u8);
             }
         }
+        // The frontier below: at each level, the block where the walk's next group there starts
+        // (a breadth-first file lays each level's groups in walk order, so a block holds the
+        // groups of one stretch of the walk; without this, a block left between two of its groups
+        // would be read again).
+        let log2 = self.cache.log2;
+        for k in l + 1..LEVELS {
+            let free = self.next_free[k];
+            if free == 0 {
+                continue;
+            }
+            let b = (u64::from(self.head.offset) + u64::from(free)) >> log2;
+            if self.cache.contains(b as usize) {
+                self.touch(b as usize, k as u8);
+            }
+        }
     }
 }
 
 impl QsNodes for StreamGroups<'_, '_, '_> {
-    type Records = Records<[u8; GROUP_MAX]>;
+    type Records = Records<GroupBytes<GROUP_MAX>>;
 
     fn group(&mut self, g: Group, level: u8) -> Option<Self::Records> {
         self.need = None;

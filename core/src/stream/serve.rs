@@ -1,18 +1,88 @@
 //! Reading what a frame asked for, the same for every streamed format (Streaming QSplat §3.4): the
 //! request queue (a block's priority is its best node's; a full queue keeps the best), the reads of
 //! one [`serve`](crate::stream::TgStream::serve) within its byte budget, the check of each block as
-//! it arrives, and the backoff of a block that failed.
+//! it arrives, and the backoff of a block that failed; with what both count ([`StreamCounters`],
+//! [`ServeReport`]) and the phases of a pass ([`Phase`]).
 
 use heapless::Vec;
 
 use super::cache::{BlockCache, BlockEntry, Evict, NOT_QUEUED, NO_SLOT};
-use super::nodes::Request;
 use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
-use super::tg::{ServeReport, StreamCounters};
 use super::ChunkSource;
 
 /// Longest backoff after repeated failures, frames.
 const MAX_BACKOFF: u32 = 64;
+
+/// Cumulative counts of a stream: what was read, what failed, what was evicted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StreamCounters {
+    /// Frames rendered.
+    pub frames: u32,
+    /// Block reads issued (header and CRC table included).
+    pub reads: u32,
+    /// Bytes those reads asked for.
+    pub bytes_read: u64,
+    /// Reads the medium failed.
+    pub read_errors: u32,
+    /// Blocks that arrived but failed their CRC.
+    pub crc_errors: u32,
+    /// Blocks that passed their CRC but not the structure check
+    /// ([`check_block`](crate::tg::read::check_block)), and bricks that
+    /// failed theirs ([`crate::tg::brick::check_brick`], when the walk first entered them): absent,
+    /// as if damaged.
+    pub structure_errors: u32,
+    /// Descents the walk refused because what it read from several resident blocks disagrees
+    /// (children outside their level, sibling groups that overlap or run backwards, more nodes than
+    /// the file holds): the cell is drawn instead, and the frame does not converge.
+    pub inconsistent: u32,
+    /// Blocks evicted to make room.
+    pub evictions: u32,
+    /// Blocks read by prefetch (nothing visible was missing).
+    pub prefetched: u32,
+    /// Requests dropped because the queue was full.
+    pub dropped: u32,
+}
+
+/// What one serve did ([`TgStream::serve`](super::TgStream::serve), or a `.qs` stream's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ServeReport {
+    /// Block reads issued.
+    pub reads: u32,
+    /// Bytes read.
+    pub bytes: u32,
+    /// Reads that failed or arrived damaged (CRC or structure).
+    pub failed: u32,
+    /// Reads that were prefetches.
+    pub prefetched: u32,
+    /// Blocks not read because the cache had no slot the eviction policy may give (every one
+    /// pinned or kept): of a frame drawn whole, any it asked for (when nothing else was read, the
+    /// next frame is this one again: draw it in passes); of a pass, those where it stopped (the
+    /// next pass would stop there again: the cache is too small for this view).
+    pub no_room: u32,
+}
+
+/// A queued block read.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Request {
+    pub priority: u32,
+    pub block: u32,
+}
+
+/// What a pass does at this point of its walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Phase {
+    /// A frame drawn whole from what is resident, coarser where blocks are absent.
+    Progressive,
+    /// A pass before its first absent block: skip what earlier passes drew, draw the rest.
+    Draw,
+    /// After the first absent block: draw nothing more, walk on through resident blocks to queue
+    /// the next ones the frame needs, in file order.
+    Lookahead,
+    /// Enough is queued: leave the rest of the frame alone.
+    Done,
+}
 
 /// What the format's check says of a block that arrived.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,10 +7,12 @@ use heapless::Vec;
 
 use super::cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
 use super::need::{LevelEnds, Need};
-use super::nodes::{Bricks, Entered, Level, PassState, Phase, Refine, Request, StreamNodes};
+use super::nodes::{Bricks, Entered, Level, PassState, Refine, StreamNodes};
 use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
 use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
-use super::serve::{clear_queue, first_absent, Feed, Verdict};
+use super::serve::{
+    clear_queue, first_absent, Feed, Phase, Request, ServeReport, StreamCounters, Verdict,
+};
 use super::{ChunkSource, PassSink, StreamError};
 use crate::crc::crc32;
 use crate::frame::Walk;
@@ -22,55 +24,6 @@ use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS}
 
 /// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
 const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
-
-/// Cumulative counts of a stream: what was read, what failed, what was evicted.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct StreamCounters {
-    /// Frames rendered.
-    pub frames: u32,
-    /// Block reads issued (header and CRC table included).
-    pub reads: u32,
-    /// Bytes those reads asked for.
-    pub bytes_read: u64,
-    /// Reads the medium failed.
-    pub read_errors: u32,
-    /// Blocks that arrived but failed their CRC.
-    pub crc_errors: u32,
-    /// Blocks that passed their CRC but not the structure check ([`check_block`]), and bricks that
-    /// failed theirs ([`crate::tg::brick::check_brick`], when the walk first entered them): absent,
-    /// as if damaged.
-    pub structure_errors: u32,
-    /// Descents the walk refused because what it read from several resident blocks disagrees
-    /// (children outside their level, sibling groups that overlap or run backwards, more nodes than
-    /// the file holds): the cell is drawn instead, and the frame does not converge.
-    pub inconsistent: u32,
-    /// Blocks evicted to make room.
-    pub evictions: u32,
-    /// Blocks read by prefetch (nothing visible was missing).
-    pub prefetched: u32,
-    /// Requests dropped because the queue was full.
-    pub dropped: u32,
-}
-
-/// What one [`TgStream::serve`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ServeReport {
-    /// Block reads issued.
-    pub reads: u32,
-    /// Bytes read.
-    pub bytes: u32,
-    /// Reads that failed or arrived damaged (CRC or structure).
-    pub failed: u32,
-    /// Reads that were prefetches.
-    pub prefetched: u32,
-    /// Blocks not read because the cache had no slot the eviction policy may give (every one
-    /// pinned or kept): of a frame drawn whole, any it asked for (when nothing else was read, the
-    /// next frame is this one again: draw it in passes); of a pass, those where it stopped (the
-    /// next pass would stop there again: the cache is too small for this view).
-    pub no_room: u32,
-}
 
 /// A `.tg` file being streamed: header, level directory, block cache and request queue.
 #[derive(Debug)]
