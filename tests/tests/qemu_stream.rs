@@ -320,3 +320,112 @@ fn stream_under_qemu(medium: Medium) -> Option<(StreamTotals, usize, Vec<StreamF
     }
     Some((arm_totals, marked, arm))
 }
+
+/// Streaming QSplat under QEMU (issue 31, item 5 in part): the firmware built with `stream` and
+/// `qsplat` opens `MODEL.QS` on a FAT image (the dragon baked to `.qs`, 2.8 MB) through
+/// embedded-sdmmc and draws its std view at 1 px through the 64 KB cache in passes, from the first
+/// (`pocketsplat_qemu::stream::qs_stream_frames`, 2 KB blocks). Its lines are the host's over the
+/// same image, and its last pass completes the resident file's frame (the host's resident render's
+/// CRC). Prints passes, bytes read for the refined frame and SD time at 2 / 10 / 20 MB/s.
+#[test]
+fn the_qsplat_dragon_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
+    use pocketsplat_qemu::stream::{qs_stream_frames, QS_BLOCK_LOG2};
+    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    let Some(path) = pocketsplat_tests::model("dragon_vrip.ply.gz") else {
+        return;
+    };
+    let mesh = pocketsplat_sim::ply::load_mesh(&path).unwrap();
+    let bytes = pocketsplat_core::qs::write::bake_qs(&mesh, &Default::default())
+        .unwrap()
+        .bytes;
+    let dir = target_dir().join("models/sd-dragon-qs");
+    std::fs::create_dir_all(&dir).unwrap();
+    let image = make_image(&dir, &bytes, "MODEL.QS");
+    let fw = Firmware {
+        target: TARGET,
+        panel: None,
+        features: &["qsplat"],
+        model: None,
+        image: Some(&image),
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0:\n{}",
+        run.transcript()
+    );
+    let arm: Vec<StreamFrame> = run
+        .stdout()
+        .lines()
+        .filter_map(StreamFrame::parse)
+        .collect();
+    let arm_totals = run
+        .field("stream total")
+        .and_then(|t| parse_totals(&format!("stream total {t}")))
+        .unwrap_or_else(|| panic!("no `stream total` line:\n{}", run.transcript()));
+
+    // The same call on the host over the same image.
+    let device = FileBlockDevice::open(&image).unwrap();
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
+    let volume = volumes
+        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
+        .unwrap();
+    let root = volumes.open_root_dir(volume).unwrap();
+    let file = volumes
+        .open_file_in_dir(root, "MODEL.QS", embedded_sdmmc::Mode::ReadOnly)
+        .unwrap();
+    let mut sd = SdFile::new(&volumes, file);
+    let mut tables = Box::new(StreamTables::EMPTY);
+    let mut data = Box::new([0u8; CACHE_BYTES]);
+    let mut frames = HostFrames::new();
+    let mut host = Vec::new();
+    let host_totals = qs_stream_frames(
+        &mut sd,
+        tables.with_cache(&mut data),
+        &mut frames.targets(),
+        |_| {},
+        |f| host.push(*f),
+    )
+    .unwrap_or_else(|e| panic!("host sequence: {e}"));
+    assert_eq!(arm, host, "the passes differ between ARM and host");
+    assert_eq!(arm_totals, host_totals);
+
+    let last = arm.last().expect("a pass");
+    assert!(last.converged(), "the refined frame completes: {last}");
+    let resident = Model::open(&bytes).unwrap();
+    let (crc, _) = frames.render_view(&resident, orbit_view(0), 1.0).unwrap();
+    assert_eq!(last.crc, crc, "the refined frame is the resident render");
+
+    let (memory, stack) = check_memory(&run, &elf).unwrap();
+    // The RP2350's SRAM (issue 31): this build, everything included (panel-sized colour and
+    // depth, shading table, cache, tables, measured stack), must fit it.
+    assert!(
+        memory.ram + stack <= 520 * 1024,
+        "RAM {} B + stack {stack} B is over the Pico 2's 520 KB",
+        memory.ram
+    );
+    let read: u64 = arm.iter().map(|f| u64::from(f.read)).sum();
+    let ms = |mb_s: f64| arm_totals.bytes as f64 / (mb_s * 1e3);
+    eprintln!(
+        "QEMU QSplat stream: dragon.qs {} B, std at 1 px in {} passes through {} blocks of {} B: \
+         {} bytes read ({} blocks; {:.0} / {:.0} / {:.0} ms of SD reading at 2 / 10 / 20 MB/s); \
+         {}: flash {} B, RAM {} B + stack {stack} B",
+        bytes.len(),
+        arm.len(),
+        arm_totals.cache_blocks,
+        1 << QS_BLOCK_LOG2,
+        arm_totals.bytes,
+        read >> QS_BLOCK_LOG2,
+        ms(2.0),
+        ms(10.0),
+        ms(20.0),
+        fw.name(),
+        memory.flash,
+        memory.ram
+    );
+}

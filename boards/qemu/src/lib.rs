@@ -37,6 +37,8 @@ pub mod scene;
 pub mod stream;
 pub mod views;
 
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+pub use views::render_qs_stream_pass;
 pub use views::{
     frame_specs, frame_specs_for, model_frame_specs, render_standard_view, render_view, Drawn,
     FrameLine, FrameReport, FrameSpec, Model, ModelError, Phase, RenderError, Shadows, Targets,

@@ -11,6 +11,9 @@
 //!    ([`TgStream::render_pass`], one line per pass, the buffers kept between passes) until the
 //!    last pass completes the frame the resident file gives.
 //!
+//! A build with `qsplat` streams a QSplat file (`MODEL.QS`) instead: [`qs_stream_frames`] draws its
+//! std view at 1 px in passes from the first, one line per pass ([`Leg::QsPx1`]), in 2 KB blocks.
+//!
 //! The sequence is [`stream_frames`], called by the firmware over semihosting and by the host tests
 //! over the same image file, so both print the same lines; a converged frame is the frame the
 //! resident file gives ([`crate::render_view`]), and the tests check that too.
@@ -170,6 +173,8 @@ pub enum Leg {
     Px2,
     /// The std view at 1 px, likewise.
     Px1,
+    /// A QSplat file's std view at 1 px, drawn in passes from the first ([`qs_stream_frames`]).
+    QsPx1,
 }
 
 impl Leg {
@@ -184,6 +189,7 @@ impl Leg {
             Leg::Return => "return",
             Leg::Px2 => "px2",
             Leg::Px1 => "px1",
+            Leg::QsPx1 => "qs-px1",
         }
     }
 
@@ -192,18 +198,21 @@ impl Leg {
         match self {
             Leg::Std | Leg::Orbit | Leg::Return => STREAM_CUTOFF_PX,
             Leg::Px2 => 2,
-            Leg::Px1 => 1,
+            Leg::Px1 | Leg::QsPx1 => 1,
         }
     }
 
     /// Whether the leg draws a refined frame in passes (one line per pass).
     pub fn passes(self) -> bool {
-        matches!(self, Leg::Px2 | Leg::Px1)
+        matches!(self, Leg::Px2 | Leg::Px1 | Leg::QsPx1)
     }
 
     /// The leg called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|l| l.name() == name)
+        Self::ALL
+            .into_iter()
+            .chain([Leg::QsPx1])
+            .find(|l| l.name() == name)
     }
 }
 
@@ -525,6 +534,89 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
     Ok(StreamTotals {
         bytes: c.bytes_read,
         file_bytes: u64::from(stream.header().blocks) << stream.header().block_log2,
+        frames: c.frames,
+        read_errors: c.read_errors,
+        crc_errors: c.crc_errors,
+        evictions: c.evictions,
+        cache_blocks: stream.cache().capacity() as u32,
+    })
+}
+
+/// Blocks of a streamed `.qs` file in this sequence: 2 KB, so that the dragon (2.8 MB) fits
+/// [`MAX_FILE_BLOCKS`] entries and its deepest path ([`QsStream::cache_need`]) the 64 KB cache.
+#[cfg(feature = "qsplat")]
+pub const QS_BLOCK_LOG2: u8 = 11;
+
+/// Opens the `.qs` file on `src` over `mem` and draws its std view at 1 px in passes
+/// ([`QsStream::render_pass`], [`Leg::QsPx1`], one line per pass) until the refined frame is the
+/// resident file's, or for [`MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes that read nothing.
+///
+/// # Errors
+/// As [`stream_frames`].
+#[cfg(feature = "qsplat")]
+pub fn qs_stream_frames<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    mem: StreamMemory<'_>,
+    targets: &mut Targets<'_>,
+    mut mark: impl FnMut(Phase),
+    mut report: impl FnMut(&StreamFrame),
+) -> Result<StreamTotals, StreamRunError<C::Error>> {
+    use pocketsplat_core::stream::QsStream;
+    let mut stream = QsStream::open(src, QS_BLOCK_LOG2, mem.data, mem.slots, mem.blocks)
+        .map_err(StreamRunError::Open)?;
+    let leg = Leg::QsPx1;
+    let (mut failed_before, mut idle) = (0, 0);
+    for index in 0..MAX_PASSES {
+        let drawn = crate::render_qs_stream_pass(
+            &mut stream,
+            orbit_view(0),
+            f32::from(leg.cutoff_px()),
+            &mut targets.streamed(),
+            index == 0,
+            &mut mark,
+        )
+        .map_err(StreamRunError::View)?;
+        let c = *stream.counters();
+        let failed = c.read_errors - failed_before;
+        failed_before = c.read_errors;
+        let crc = pocketsplat_core::raster::Framebuffer::new(targets.color, targets.depth).crc();
+        let done = stream.refined_done();
+        let missing = if done {
+            stream.missing()
+        } else {
+            stream.missing().max(1)
+        };
+        let served = stream.serve(src, REFINE_IO_BUDGET_BYTES);
+        let line = StreamFrame {
+            leg,
+            index,
+            az_deg: 0,
+            crc,
+            missing,
+            failed,
+            marker: failed > 0 || stream.inconsistent() > 0,
+            read: served.bytes,
+            prefetched: served.prefetched << QS_BLOCK_LOG2,
+            splats: drawn.stats.splats,
+            nodes: drawn.stats.nodes_visited,
+        };
+        report(&line);
+        if done {
+            break;
+        }
+        idle = if served.reads > served.failed {
+            0
+        } else {
+            idle + 1
+        };
+        if idle >= MAX_IDLE_PASSES {
+            break;
+        }
+    }
+    let c = stream.counters();
+    Ok(StreamTotals {
+        bytes: c.bytes_read,
+        file_bytes: stream.file_len(),
         frames: c.frames,
         read_errors: c.read_errors,
         crc_errors: c.crc_errors,

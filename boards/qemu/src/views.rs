@@ -29,6 +29,8 @@ use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::TgStream;
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+use pocketsplat_core::{render::render_qs_stream, stream::QsStream};
 
 use crate::{HEIGHT, WIDTH};
 
@@ -356,6 +358,52 @@ pub fn render_stream_pass(
         StreamPass::NextPass
     };
     stream_frame(stream, view, cutoff_px, targets, pass, mark)
+}
+
+/// The next pass of a refined frame of a streamed QSplat file ([`QsStream::render_pass`]) at
+/// `view` and `cutoff_px`, as [`render_stream_pass`] for a tri-grid: the same camera (the orbit of
+/// the file's bounds), options and targets as [`render_view`] of the resident file.
+///
+/// # Errors
+/// When the frame cannot be set up ([`RenderError::Frame`]).
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+pub fn render_qs_stream_pass(
+    stream: &mut QsStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut StreamTargets<'_>,
+    first: bool,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    let sphere = pocketsplat_core::camera::Sphere::from_bounds(stream.bounds());
+    let camera = pocketsplat_core::camera::Camera::orbit(
+        sphere,
+        view,
+        pocketsplat_core::camera::DEFAULT_FOV_DEG,
+    );
+    let options = RenderOptions {
+        cutoff_px,
+        kernel: KERNEL,
+        ..RenderOptions::default()
+    };
+    let mut target = Target::new(
+        Framebuffer::new(targets.color, targets.depth),
+        targets.table,
+    );
+    let pass = if first {
+        StreamPass::FirstPass
+    } else {
+        StreamPass::NextPass
+    };
+    render_qs_stream(
+        stream,
+        &camera,
+        &options,
+        &mut target,
+        pass,
+        &mut Direct,
+        mark,
+    )
 }
 
 /// A streamed frame or pass with the defaults of [`render_view`].

@@ -160,9 +160,20 @@ pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
     hprintln!("{}", FrameCrc { frame, crc });
 }
 
-/// The model's name in the volume's root directory (8.3).
-#[cfg(all(feature = "stream", not(feature = "selftest-hostile")))]
+/// The model's name in the volume's root directory (8.3): the bunny's tri-grid, or, in a build
+/// with `qsplat`, a QSplat file (`pocketsplat_qemu::stream::qs_stream_frames`).
+#[cfg(all(
+    feature = "stream",
+    not(feature = "selftest-hostile"),
+    not(feature = "qsplat")
+))]
 const MODEL_FILE: &str = "BUNNY.TG";
+#[cfg(all(
+    feature = "stream",
+    not(feature = "selftest-hostile"),
+    feature = "qsplat"
+))]
+const MODEL_FILE: &str = "MODEL.QS";
 
 /// With `selftest-hostile`: streams `H000.TG`, `H001.TG`, … of the image's first volume in turn
 /// until one is missing, one line each (`pocketsplat_qemu::hostile`), then `hostile done N`.
@@ -237,9 +248,14 @@ pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
     let mut src = pocketsplat_qemu::stream::pulled(sd);
     #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
     let mut src = sd;
-    match pocketsplat_qemu::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, |f| {
-        hprintln!("{}", f)
-    }) {
+    let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
+    #[cfg(not(feature = "qsplat"))]
+    let run =
+        pocketsplat_qemu::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, report);
+    #[cfg(feature = "qsplat")]
+    let run =
+        pocketsplat_qemu::stream::qs_stream_frames(&mut src, mem, &mut targets, marks::hit, report);
+    match run {
         Ok(totals) => hprintln!("{}", totals),
         Err(e) => fail(format_args!("stream: {e}")),
     }
