@@ -7,8 +7,9 @@
 //! is a pin binding: `src/bin/pico2-restouch.rs` binds it to a Raspberry Pi Pico 2 with a Waveshare
 //! Pico-ResTouch-LCD-2.8 (an ST7789 through mipidsi, [`init_panel`]; wiring in `../README.md`).
 //!
-//! The model is `MODEL.TG` in the card's root, of any size: it is never read whole but streamed
-//! through a 64 KB block cache ([`TgStream`], the QEMU firmware's `stream` build,
+//! The model is `MODEL.TG` (or else `MODEL.QS`, a QSplat file) in the card's root, of any size: it
+//! is never read whole but streamed through a 64 KB block cache ([`TgStream`], [`QsStream`], the
+//! QEMU firmware's `stream` build,
 //! `pocketsplat_qemu::stream`), or else a model linked into flash, streamed the same way. The frame
 //! is the QEMU firmware's (same camera, shading and traversal:
 //! [`pocketsplat_qemu::render_stream_view`]). One [`Viewer::step`] is one turn of the loop:
@@ -41,16 +42,20 @@ use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
 use pocketsplat_core::camera::{View, STANDARD_VIEWS};
+use pocketsplat_core::format::QS_MAGIC;
 use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
-use pocketsplat_core::stream::{ChunkSource, MemSource, OutOfRange, StreamError, TgStream};
+use pocketsplat_core::stream::{
+    ChunkSource, MemSource, OutOfRange, QsStream, StreamError, TgStream,
+};
 use pocketsplat_core::tg::TgError;
+use pocketsplat_qemu::stream::QS_BLOCK_LOG2;
 use pocketsplat_qemu::stream::{
     draw_error_marker, IO_BUDGET_BYTES, MAX_CONVERGE_FRAMES, MAX_IDLE_PASSES, MAX_PASSES,
     REFINE_IO_BUDGET_BYTES,
 };
-use pocketsplat_qemu::{render_stream_pass, render_stream_view};
+use pocketsplat_qemu::{render_model_stream, ModelStream, StreamPass};
 use pocketsplat_qemu::{HEIGHT, WIDTH};
 
 pub use pocketsplat_core::stream::sdmmc::NoClock;
@@ -58,8 +63,12 @@ pub use pocketsplat_core::stream::sdmmc::NoClock;
 pub use pocketsplat_qemu::stream::CACHE_BYTES;
 pub use pocketsplat_qemu::StreamTargets;
 
-/// Name of the model file in the SD card's root directory (8.3).
+/// Name of the model file in the SD card's root directory (8.3): a tri-grid, or else
+/// [`QS_MODEL_FILE`].
 pub const MODEL_FILE: &str = "MODEL.TG";
+/// A QSplat file in the card's root, shown when there is no [`MODEL_FILE`] (streamed in 2 KB
+/// blocks, `pocketsplat_qemu::stream::QS_BLOCK_LOG2`).
+pub const QS_MODEL_FILE: &str = "MODEL.QS";
 /// Frame time the controller aims at while the camera moves, microseconds (5 fps).
 pub const TARGET_FRAME_US: u32 = 200_000;
 /// Cutoff of the first frame, pixels.
@@ -225,10 +234,10 @@ impl core::fmt::Display for LoadError {
         match self {
             LoadError::NoFile => write!(
                 f,
-                "No {MODEL_FILE} on the SD card\nand no model in flash.\nSee README."
+                "No {MODEL_FILE} or {QS_MODEL_FILE}\non the SD card and no\nmodel in flash. See README."
             ),
             LoadError::Read => write!(f, "{MODEL_FILE}: the card\nfailed to read it."),
-            LoadError::Invalid => write!(f, "{MODEL_FILE} is not a\nvalid tri-grid."),
+            LoadError::Invalid => write!(f, "The model is not a\nvalid .tg or .qs file."),
             LoadError::OldVersion(v) => write!(
                 f,
                 "{MODEL_FILE} is version {v}.\nConvert it on a PC:\npocketsplat migrate"
@@ -241,8 +250,9 @@ impl core::fmt::Display for LoadError {
     }
 }
 
-/// Opens [`MODEL_FILE`] in the root of the first FAT volume of `volumes`. On an SD card in SPI mode
-/// call it with the bus at ≤ 400 kHz (the card initialises on the first read).
+/// Opens [`MODEL_FILE`], or else [`QS_MODEL_FILE`], in the root of the first FAT volume of
+/// `volumes`. On an SD card in SPI mode call it with the bus at ≤ 400 kHz (the card initialises on
+/// the first read).
 ///
 /// # Errors
 /// [`LoadError::NoFile`]: no card, volume or file.
@@ -256,6 +266,7 @@ pub fn open_model<D: BlockDevice>(volumes: &Volumes<D>) -> Result<CardFile<'_, D
         .map_err(|_| LoadError::NoFile)?;
     let file: RawFile = volumes
         .open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)
+        .or_else(|_| volumes.open_file_in_dir(root, QS_MODEL_FILE, Mode::ReadOnly))
         .map_err(|_| LoadError::NoFile)?;
     Ok(SdFile::new(volumes, file))
 }
@@ -308,18 +319,33 @@ impl<D: BlockDevice> ChunkSource for ModelSource<'_, D> {
 /// in `.bss`), a box on the host.
 pub type StreamTables = pocketsplat_qemu::stream::StreamTables<MAX_FILE_BLOCKS>;
 
-/// Opens the `.tg` on `src` for streaming through the [`CACHE_BYTES`] of `cache` (reads its header
-/// and CRC table).
+/// Opens the model on `src` for streaming through the [`CACHE_BYTES`] of `cache`: a QSplat file by
+/// its magic (its fragment headers read), else a `.tg` (its header and CRC table read).
 ///
 /// # Errors
-/// [`LoadError`]: the header cannot be read, is not a tri-grid's, or declares too many blocks.
+/// [`LoadError`]: the header cannot be read, is neither a tri-grid's nor a QSplat file's, or
+/// declares too many blocks.
 pub fn open_stream<'a, C: ChunkSource + ?Sized>(
     src: &mut C,
     cache: &'a mut [u8; CACHE_BYTES],
     tables: &'a mut StreamTables,
-) -> Result<TgStream<'a>, LoadError> {
-    TgStream::open(src, cache, &mut tables.slots, &mut tables.blocks).map_err(|e| {
-        log!(warn, "{}: {}", MODEL_FILE, shown!(e));
+) -> Result<ModelStream<'a>, LoadError> {
+    let mut magic = [0u8; 8];
+    let qsplat = src.read_at(0, &mut magic).is_ok() && magic == QS_MAGIC;
+    let opened = if qsplat {
+        QsStream::open(
+            src,
+            QS_BLOCK_LOG2,
+            cache,
+            &mut tables.slots,
+            &mut tables.blocks,
+        )
+        .map(ModelStream::Qs)
+    } else {
+        TgStream::open(src, cache, &mut tables.slots, &mut tables.blocks).map(ModelStream::Tg)
+    };
+    opened.map_err(|e| {
+        log!(warn, "model: {}", shown!(e));
         match e {
             StreamError::Device(_) => LoadError::Read,
             StreamError::TooManyBlocks { blocks, .. } => LoadError::TooLarge(blocks),
@@ -388,7 +414,7 @@ enum State {
 
 /// The viewer: a stream, its source, the panel, the frame's buffers and the camera.
 pub struct Viewer<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> {
-    stream: TgStream<'a>,
+    stream: ModelStream<'a>,
     src: C,
     panel: P,
     clock: K,
@@ -406,7 +432,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
     /// A viewer of `stream` (opened on `src` by [`open_stream`]) drawing into `targets` and onto
     /// `panel`, from the std view.
     pub fn new(
-        stream: TgStream<'a>,
+        stream: ModelStream<'a>,
         src: C,
         panel: P,
         clock: K,
@@ -435,8 +461,8 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
         self.orbit.view
     }
 
-    /// The stream (its header and counters).
-    pub fn stream(&self) -> &TgStream<'a> {
+    /// The stream (its counters).
+    pub fn stream(&self) -> &ModelStream<'a> {
         &self.stream
     }
 
@@ -479,7 +505,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
                     return StepOutcome::Refined(info);
                 }
                 let stuck = info.read == 0
-                    || self.stream.working_set() as usize > self.stream.cache().capacity();
+                    || self.stream.working_set() as usize > self.stream.cache_capacity();
                 if !converged && stuck {
                     // The frame wants more than the cache holds at once (its blocks would evict
                     // each other, or what it uses leaves no room for what it lacks): the 1 px
@@ -507,11 +533,12 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
     /// when `hud`), sends it to the panel and reads up to `budget` bytes.
     fn whole_frame(&mut self, cutoff_px: f32, budget: u32, hud: bool) -> FrameInfo {
         let t0 = self.clock.now_us();
-        let drawn = render_stream_view(
+        let drawn = render_model_stream(
             &mut self.stream,
             self.orbit.view,
             cutoff_px,
             &mut self.targets,
+            StreamPass::Frame,
             |_| {},
         );
         let missing = self.stream.missing();
@@ -568,17 +595,22 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
     /// The next pass of the 1 px frame; shown when it completes the frame.
     fn pass(&mut self, first: bool, idle: u32) -> StepOutcome {
         let t0 = self.clock.now_us();
-        let intact = |s: &TgStream<'_>| {
+        let intact = |s: &ModelStream<'_>| {
             let c = s.counters();
             c.reads - c.read_errors - c.crc_errors - c.structure_errors
         };
         let before = intact(&self.stream);
-        let drawn = render_stream_pass(
+        let pass = if first {
+            StreamPass::FirstPass
+        } else {
+            StreamPass::NextPass
+        };
+        let drawn = render_model_stream(
             &mut self.stream,
             self.orbit.view,
             FINEST_CUTOFF_PX,
             &mut self.targets,
-            first,
+            pass,
             |_| {},
         );
         let done = drawn.is_ok() && self.stream.refined_done();
@@ -736,15 +768,27 @@ where
             halt("no model", &mut delay);
         }
     };
-    let h = *stream.header();
-    log!(
-        info,
-        "model: {} blocks of {} bytes, rho {}, depth {}",
-        h.blocks,
-        h.block_size(),
-        h.rho,
-        h.depth
-    );
+    match &stream {
+        ModelStream::Tg(s) => {
+            let h = *s.header();
+            log!(
+                info,
+                "model: a tri-grid, {} blocks of {} bytes, rho {}, depth {}",
+                h.blocks,
+                h.block_size(),
+                h.rho,
+                h.depth
+            );
+        }
+        ModelStream::Qs(s) => {
+            log!(
+                info,
+                "model: a QSplat file, {} bytes, {} trees",
+                s.file_len(),
+                s.trees().len()
+            );
+        }
+    }
     let mut viewer = Viewer::new(stream, src, panel, clock, targets);
     loop {
         if viewer.step(buttons.held()) == StepOutcome::Idle {

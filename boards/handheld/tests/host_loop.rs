@@ -197,12 +197,12 @@ fn run_loop(
     mut during: impl FnMut(usize),
 ) -> Run {
     let volumes = volumes(ImageCard { image, pulled });
-    let mut src = ModelSource::Card(open_model(&volumes).expect("MODEL.TG on the card"));
+    let mut src = ModelSource::Card(open_model(&volumes).expect("a model on the card"));
     let mut cache = Box::new([0u8; CACHE_BYTES]);
     let mut tables = Box::new(StreamTables::EMPTY);
     let (mut color, mut depth) = (rows(), rows());
     let mut table = Box::new(ShadingTable::<1>::new());
-    let stream = open_stream(&mut src, &mut cache, &mut tables).expect("a streamable .tg");
+    let stream = open_stream(&mut src, &mut cache, &mut tables).expect("a streamable model");
     let targets = StreamTargets {
         color: &mut color,
         depth: &mut depth,
@@ -344,6 +344,60 @@ fn buttons_move_the_camera_and_idle_frames_refine_to_the_resident_frame() {
         passes,
         run.bytes_read,
         file.len(),
+        run.panel_crc
+    );
+}
+
+/// The bunny baked to `.qs` on a FAT image as `MODEL.QS` (and no `MODEL.TG`): the same loop, same
+/// script, comes to rest on the resident file's 1 px frame (issue 31).
+#[test]
+fn a_qsplat_model_on_the_card_refines_to_the_resident_frame() {
+    if !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    let Some(path) = pocketsplat_fixture::models::model("bun_zipper.ply.gz") else {
+        return;
+    };
+    let mesh = pocketsplat_fixture::scan::read_ascii_ply(&path);
+    let file = pocketsplat_core::qs::write::bake_qs(&mesh, &Default::default())
+        .unwrap()
+        .bytes;
+    let dir = tempfile::tempdir().unwrap();
+    let image = std::fs::read(make_image(dir.path(), &file, "MODEL.QS")).unwrap();
+    let mut script = vec![Button::Right.alone(); 3];
+    script.extend([Button::ZoomIn.alone(); 2]);
+    let run = run_loop(image, &script, Rc::new(Cell::new(false)), |_| {});
+    let n = run.outcomes.len();
+    assert_eq!(
+        run.outcomes[n - 1],
+        StepOutcome::Idle,
+        "the loop comes to rest"
+    );
+    let StepOutcome::Refined(last) = run.outcomes[n - 2] else {
+        panic!("the step before rest is {:?}", run.outcomes[n - 2]);
+    };
+    assert_eq!((last.cutoff_px, last.missing), (1.0, 0));
+    assert!(
+        !run.outcomes.iter().filter_map(info).any(|f| f.marker),
+        "a clean card never shows the read-error marker"
+    );
+    let qs = pocketsplat_core::qs::QSplat::open(&file).unwrap();
+    let want = core_frame_crc(&Model::from(qs), run.view);
+    assert_eq!(
+        run.panel_crc, want,
+        "the panel's last frame is not the resident render"
+    );
+    let passes = run
+        .outcomes
+        .iter()
+        .filter(|o| matches!(o, StepOutcome::Pass(_)))
+        .count();
+    eprintln!(
+        "handheld loop, MODEL.QS ({} bytes): {} steps, {passes} passes, {} bytes read in all; \
+         last frame crc {:#010x}",
+        file.len(),
+        run.outcomes.len(),
+        run.bytes_read,
         run.panel_crc
     );
 }

@@ -37,6 +37,8 @@ pub mod scene;
 pub mod stream;
 pub mod views;
 
+#[cfg(feature = "stream")]
+pub use pocketsplat_core::render::StreamPass;
 #[cfg(all(feature = "stream", feature = "qsplat"))]
 pub use views::render_qs_stream_pass;
 pub use views::{
@@ -45,7 +47,9 @@ pub use views::{
     CUTOFFS_PX, SHADOW_MAP_SIZE, SHADOW_MODES,
 };
 #[cfg(feature = "stream")]
-pub use views::{render_stream_pass, render_stream_view, StreamTargets};
+pub use views::{
+    render_model_stream, render_stream_pass, render_stream_view, ModelStream, StreamTargets,
+};
 
 use pocketsplat_core::crc::Crc32;
 

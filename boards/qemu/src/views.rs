@@ -375,6 +375,24 @@ pub fn render_qs_stream_pass(
     first: bool,
     mark: impl FnMut(Phase),
 ) -> Result<Drawn, RenderError> {
+    let pass = if first {
+        StreamPass::FirstPass
+    } else {
+        StreamPass::NextPass
+    };
+    qs_stream_frame(stream, view, cutoff_px, targets, pass, mark)
+}
+
+/// A streamed QSplat frame or pass with the defaults of [`render_view`].
+#[cfg(all(feature = "stream", feature = "qsplat"))]
+fn qs_stream_frame(
+    stream: &mut QsStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut StreamTargets<'_>,
+    pass: StreamPass,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
     let sphere = pocketsplat_core::camera::Sphere::from_bounds(stream.bounds());
     let camera = pocketsplat_core::camera::Camera::orbit(
         sphere,
@@ -390,11 +408,6 @@ pub fn render_qs_stream_pass(
         Framebuffer::new(targets.color, targets.depth),
         targets.table,
     );
-    let pass = if first {
-        StreamPass::FirstPass
-    } else {
-        StreamPass::NextPass
-    };
     render_qs_stream(
         stream,
         &camera,
@@ -404,6 +417,96 @@ pub fn render_qs_stream_pass(
         &mut Direct,
         mark,
     )
+}
+
+/// A streamed model of either format: what a viewer that opens `MODEL.TG` or `MODEL.QS` holds.
+#[cfg(feature = "stream")]
+pub enum ModelStream<'a> {
+    /// A tri-grid.
+    Tg(TgStream<'a>),
+    /// A QSplat file.
+    #[cfg(feature = "qsplat")]
+    Qs(QsStream<'a>),
+}
+
+/// `$body` with `$s` bound to the stream of either format.
+#[cfg(feature = "stream")]
+macro_rules! each_stream {
+    ($self:expr, $s:ident => $body:expr) => {
+        match $self {
+            ModelStream::Tg($s) => $body,
+            #[cfg(feature = "qsplat")]
+            ModelStream::Qs($s) => $body,
+        }
+    };
+}
+
+#[cfg(feature = "stream")]
+impl ModelStream<'_> {
+    /// Reads what the last frame asked for ([`TgStream::serve`]).
+    pub fn serve<C: pocketsplat_core::stream::ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        budget_bytes: u32,
+    ) -> pocketsplat_core::stream::ServeReport {
+        each_stream!(self, s => s.serve(src, budget_bytes))
+    }
+    /// What the last frame missed (0: the resident file's frame).
+    pub fn missing(&self) -> u32 {
+        each_stream!(self, s => s.missing())
+    }
+    /// Descents the last frame refused as malformed.
+    pub fn inconsistent(&self) -> u32 {
+        each_stream!(self, s => s.inconsistent())
+    }
+    /// Blocks the last frame used and queued.
+    pub fn working_set(&self) -> u32 {
+        each_stream!(self, s => s.working_set())
+    }
+    /// Blocks the cache holds.
+    pub fn cache_capacity(&self) -> usize {
+        each_stream!(self, s => s.cache().capacity())
+    }
+    /// Cumulative counts.
+    pub fn counters(&self) -> &pocketsplat_core::stream::StreamCounters {
+        each_stream!(self, s => s.counters())
+    }
+    /// Whether the last pass completed its refined frame.
+    pub fn refined_done(&self) -> bool {
+        each_stream!(self, s => s.refined_done())
+    }
+    /// Passes of the refined frame.
+    pub fn passes(&self) -> u32 {
+        each_stream!(self, s => s.passes())
+    }
+    /// Bytes in the file.
+    pub fn file_len(&self) -> u64 {
+        match self {
+            ModelStream::Tg(s) => u64::from(s.header().blocks) << s.header().block_log2,
+            #[cfg(feature = "qsplat")]
+            ModelStream::Qs(s) => s.file_len(),
+        }
+    }
+}
+
+/// [`render_stream_view`] or [`render_stream_pass`] (`pass`) of a stream of either format.
+///
+/// # Errors
+/// When the frame cannot be set up ([`RenderError::Frame`]).
+#[cfg(feature = "stream")]
+pub fn render_model_stream(
+    stream: &mut ModelStream<'_>,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut StreamTargets<'_>,
+    pass: StreamPass,
+    mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    match stream {
+        ModelStream::Tg(s) => stream_frame(s, view, cutoff_px, targets, pass, mark),
+        #[cfg(feature = "qsplat")]
+        ModelStream::Qs(s) => qs_stream_frame(s, view, cutoff_px, targets, pass, mark),
+    }
 }
 
 /// A streamed frame or pass with the defaults of [`render_view`].
