@@ -543,13 +543,14 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
 }
 
 /// Blocks of a streamed `.qs` file in this sequence: 2 KB, so that the dragon (2.8 MB) fits
-/// [`MAX_FILE_BLOCKS`] entries and its deepest path ([`QsStream::cache_need`]) the 64 KB cache.
+/// [`MAX_FILE_BLOCKS`] entries and its deepest path
+/// ([`QsStream::cache_need`](pocketsplat_core::stream::QsStream::cache_need)) the 64 KB cache.
 #[cfg(feature = "qsplat")]
 pub const QS_BLOCK_LOG2: u8 = 11;
 
 /// Opens the `.qs` file on `src` over `mem` and draws its std view at 1 px in passes
-/// ([`QsStream::render_pass`], [`Leg::QsPx1`], one line per pass) until the refined frame is the
-/// resident file's, or for [`MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes that read nothing.
+/// ([`QsStream::render_pass`](pocketsplat_core::stream::QsStream::render_pass), [`Leg::QsPx1`],
+/// one line per pass) until the refined frame is the resident file's, or for [`MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes that read nothing.
 ///
 /// # Errors
 /// As [`stream_frames`].

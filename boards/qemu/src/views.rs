@@ -420,7 +420,9 @@ fn qs_stream_frame(
 }
 
 /// A streamed model of either format: what a viewer that opens `MODEL.TG` or `MODEL.QS` holds.
+/// One per viewer, by value: no heap on the device to box the larger variant in.
 #[cfg(feature = "stream")]
+#[allow(clippy::large_enum_variant)]
 pub enum ModelStream<'a> {
     /// A tri-grid.
     Tg(TgStream<'a>),
