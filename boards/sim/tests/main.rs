@@ -17,3 +17,4 @@ mod sizes;
 mod stability;
 mod stream;
 mod view;
+mod winding;

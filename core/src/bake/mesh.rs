@@ -9,7 +9,8 @@ use std::vec::Vec;
 pub struct TriMesh {
     /// Vertex positions.
     pub positions: Vec<[f64; 3]>,
-    /// Triangles as indices into `positions`, counter-clockwise seen from outside.
+    /// Triangles as indices into `positions`, counter-clockwise seen from outside ([`TriMesh::orient`]
+    /// makes a mesh so when its file winds it otherwise).
     pub triangles: Vec<[u32; 3]>,
     /// Optional material index per triangle (0..8); `None` means material 0 everywhere.
     pub materials: Option<Vec<u8>>,

@@ -11,6 +11,7 @@ pub mod cone;
 mod geom;
 mod grid;
 mod mesh;
+pub mod orient;
 pub mod piece;
 
 pub use piece::{bake_piece, stitch, CellSplit, Part};
@@ -21,3 +22,4 @@ pub use grid::{
     bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel, GridFrame, PreciseCube,
 };
 pub use mesh::{bounds_f32, MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};
+pub use orient::{orientation_flips, Orientation};

@@ -3,6 +3,10 @@
 //! starts), or out of core within a memory budget ([`ooc_tg`], [`ooc_qs`]: the PLY streamed, the
 //! mesh cut into pieces through spill files, the same bytes). `pocketsplat bake` chooses and
 //! writes; reports, scenes and tests bake through these.
+//!
+//! In memory the importer has wound the mesh outward (`TriMesh::orient`); out of core the faces
+//! are baked as the file winds them, since orienting needs every edge at once: the same bytes for
+//! a file wound outward (every Stanford scan), not for one wound inward or both ways.
 
 pub mod budget;
 pub mod ooc_qs;

@@ -81,7 +81,13 @@ fn in_memory_by_counts(job: &BakeJob, limits: &Limits) -> bool {
             .saturating_mul(TG_BYTES_PER_VERTEX)
             .saturating_add(c.faces.saturating_mul(TG_BYTES_PER_TRIANGLE)),
     };
-    need.saturating_add(c.faces.saturating_mul(13)) <= job.ooc.budget
+    // Loading orients the triangles first (core `bake::orient`): the mesh and the orientation's
+    // tables, freed before the bake starts.
+    let orient = c.vertices.saturating_mul(24).saturating_add(
+        c.faces
+            .saturating_mul(12 + pocketsplat_core::bake::orient::ORIENT_BYTES_PER_TRIANGLE),
+    );
+    need.saturating_add(c.faces.saturating_mul(13)).max(orient) <= job.ooc.budget
 }
 
 /// Bakes `job` within `limits` (its `bake` is the budget unless `--force`).

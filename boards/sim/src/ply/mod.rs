@@ -83,7 +83,9 @@ const BUFFER_BYTES: usize = 1 << 16;
 /// Vertices need `x`, `y`, `z` (any numeric type); `red`, `green`, `blue` (`uchar`, or `float` /
 /// `double` in 0..1) become per-vertex colours. Faces need a `vertex_indices` (or `vertex_index`)
 /// list of integers with exactly three entries. Other elements and properties are skipped. Zero-area
-/// faces and duplicate or unreferenced vertices are kept as they are.
+/// faces and duplicate or unreferenced vertices are kept as they are. The triangles are then wound
+/// outward ([`TriMesh::orient`]): a mesh written inward, or with triangles wound both ways, loads
+/// as the same mesh written outward, so its bake and its reference agree on which side is lit.
 ///
 /// # Errors
 /// A [`PlyError`] naming the file and the element: unreadable file, not PLY or malformed header,
@@ -163,6 +165,9 @@ fn load(
         file: name.to_owned(),
         error,
     })?;
+    // Wound outward whatever way the file winds it: what the bake, the device and the f64
+    // reference then all see (core `bake::orient`).
+    mesh.orient();
     Ok(mesh)
 }
 
