@@ -304,10 +304,12 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
             &t[2][(c + 12) as usize],
         );
         // Wrapping: a valid tree stays far inside i32 (every centre lies within about one root radius
-        // of the root's); a hostile one draws garbage but cannot overflow.
+        // of the root's); a hostile one draws garbage but cannot overflow. The table sum fits an
+        // i32 whatever the file holds (each entry is at most 12 model integers times a row of at
+        // most 4 units each: 3 · 12 · 4 · 2²³ < 2³¹), so one 32 × 32 → 64-bit multiply.
         let step = |k: usize| {
-            let sum = i64::from(ta[k]) + i64::from(tb[k]) + i64::from(tc[k]);
-            ((i64::from(r13) * sum + (1 << (T_BITS - 1))) >> T_BITS) as i32
+            let sum = ta[k].wrapping_add(tb[k]).wrapping_add(tc[k]);
+            ((i64::from(r13) * i64::from(sum) + (1 << (T_BITS - 1))) >> T_BITS) as i32
         };
         let s = Sphere {
             c: [
