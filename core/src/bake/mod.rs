@@ -22,4 +22,4 @@ pub use grid::{
     bake_grid, BakeOptions, BakeProgress, BakedGrid, BakedLevel, GridFrame, PreciseCube,
 };
 pub use mesh::{bounds_f32, MeshError, TriMesh, MAX_COORDINATE, MAX_MATERIALS};
-pub use orient::{orientation_flips, Orientation};
+pub use orient::{orientation_flips, Facing, Orientation};

@@ -20,14 +20,15 @@
 //!      other, as a consistent file crosses them; if that does not decide, it turns if they did;
 //!    - a speck (under 10⁻³ of the mesh's area: a scan's floating debris) turns if most of the mesh
 //!      did, and so do triangles on the same three vertices as another (duplicates), left out of
-//!      step 1; triangles of no area, left out too, have no side and are never turned;
+//!      step 1, and triangles of no area, left out too (they have no side);
 //!    - any other patch: the sign of its signed volume about its area centroid
 //!      (`Σ det(a − c, b − c, d − c) / 6`: positive when it winds counter-clockwise seen from
 //!      outside, for closed surfaces and open ones such as a scan with holes or a tube); where the
 //!      volume is negligible (`|V| ≤ 10⁻³ · A^{3/2}`: a flat or nearly flat sheet, which has no
-//!      inside) and its summed normal is mostly along Y, up (a ground faces +Y: models are Y up);
-//!      any other sheet (a wall, a single triangle, a closed flat double sheet) keeps the winding
-//!      most of its area has.
+//!      inside) and its summed normal is mostly along Y, up (a ground faces +Y: models are Y up)
+//!      ([`Facing`]); any other sheet (a wall, a single triangle, a closed flat double sheet)
+//!      turns if most of the mesh did, and keeps the winding most of its area has when it is the
+//!      first decided.
 //!
 //! A mesh already wound outward is left as it is (every Stanford scan in `../shared/models`: not a
 //! triangle turned); the same mesh reversed orients to it exactly; with triangles reversed at
@@ -86,7 +87,7 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
     // scan's two-sided slivers) are left out, and turned only if most of the mesh is: their edges
     // would look branching and unbalanced, and which of them is the outside cannot be told.
     let twin = twins(triangles);
-    // Triangles of no area have no side: left out too, and never turned.
+    // Triangles of no area have no side: left out too, and turned with the mesh.
     let flat: Vec<bool> = triangles
         .iter()
         .map(|t| {
@@ -198,12 +199,16 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
         } else if verdict != 0 {
             // Touching but balanced either way (a fin of two sheets): turned if its neighbours were.
             as_filed == (verdict > 0)
-        } else if areas[p] < SPECK * total {
-            // A speck (a scan's floating debris): too small to tell, turned if most of the mesh
-            // was (specks come last, the largest patches decided).
-            as_filed != file_turned(kept_area, turned_area)
+        } else if let Some(out) = (areas[p] >= SPECK * total)
+            .then(|| facing(&corners, patch))
+            .flatten()
+        {
+            out
         } else {
-            outward(&corners, patch, &parity)
+            // A speck (a scan's floating debris), or a sheet that is not a ground: nothing tells,
+            // so turned if most of the mesh was (the largest patches come first); with nothing
+            // decided yet, as the file has most of it.
+            as_filed != file_turned(kept_area, turned_area)
         };
         let mut turned = 0i64;
         for &t in patch {
@@ -224,10 +229,9 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
             *verdicts.entry(key).or_insert(0) += kept;
         }
     }
-    // Duplicates turn with the mesh.
+    // Duplicates and triangles of no area turn with the mesh.
     if file_turned(kept_area, turned_area) {
-        let turn = twin.iter().zip(&flat).map(|(&d, &f)| d && !f);
-        for (flip, _) in flips.iter_mut().zip(turn).filter(|(_, t)| *t) {
+        for (flip, _) in flips.iter_mut().zip(&left_out).filter(|(_, &t)| t) {
             *flip = true;
             report.flipped += 1;
         }
@@ -262,43 +266,72 @@ fn twins(triangles: &[[u32; 3]]) -> Vec<bool> {
     twin
 }
 
-/// Whether the patch, wound as `parity` says (1: turned), winds outward (`true`) or must be turned
-/// whole (`false`).
-fn outward(corners: &impl Fn(u32) -> [V3; 3], patch: &[u32], parity: &[u8]) -> bool {
-    // Area centroid, summed normal (twice the area long), area.
-    let (mut centroid, mut normal, mut area2) = ([0.0; 3], [0.0; 3], 0.0);
+/// Which way the patch, wound as `corners` gives it, faces ([`Facing::outward`]).
+fn facing(corners: &impl Fn(u32) -> [V3; 3], patch: &[u32]) -> Option<bool> {
+    let mut facing = Facing::default();
     for &t in patch {
-        let [a, b, c] = corners(t);
+        facing.add(corners(t));
+    }
+    facing.outward()
+}
+
+/// Which way a surface faces, accumulated one triangle at a time (as wound): its signed volume
+/// about its area centroid and its summed normal; what [`orientation_flips`] decides a patch by,
+/// and an out-of-core bake the whole mesh by, in one pass over its faces.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Facing {
+    /// The first corner seen: every sum is taken about it, for precision.
+    origin: Option<V3>,
+    /// `Σ det(a, b, c)` about the origin.
+    det: f64,
+    /// `Σ n`, `n = (b − a) × (c − a)` (twice the area long).
+    normal: V3,
+    /// `Σ |n| · (a + b + c) / 3` about the origin.
+    moment: V3,
+    /// `Σ |n|`: twice the area.
+    area2: f64,
+}
+
+impl Facing {
+    /// Adds a triangle as wound.
+    pub fn add(&mut self, corners: [V3; 3]) {
+        let o = *self.origin.get_or_insert(corners[0]);
+        let [a, b, c] = corners.map(|p| sub(p, o));
         let n = cross(sub(b, a), sub(c, a));
         let w = dot(n, n).sqrt();
+        self.det += dot(a, cross(b, c));
         for k in 0..3 {
-            centroid[k] += w * (a[k] + b[k] + c[k]) / 3.0;
-            normal[k] += n[k];
+            self.normal[k] += n[k];
+            // `b + c` first: the same sum for the triangle turned (`[a, c, b]`), so that a mesh
+            // and its reverse decide alike to the last bit.
+            self.moment[k] += w * (a[k] + (b[k] + c[k])) / 3.0;
         }
-        area2 += w;
+        self.area2 += w;
     }
-    // The tie-break of a patch with neither volume nor normal.
-    let keep_majority = areas_turned(corners, patch, parity) * 2.0 <= area2;
-    if !(area2 > 0.0 && area2.is_finite()) {
-        return keep_majority;
+
+    /// Whether the surface as wound faces out (`Some(true)`) or in (`Some(false)`), or `None`
+    /// when nothing tells (a sheet that is not a ground; no area).
+    ///
+    /// Out when its signed volume about its area centroid `c`, `Σ det(a − c, b − c, d − c) / 6 =
+    /// (Σ det(a, b, d) − c · Σ n) / 6`, is positive and not negligible (`|V| > 10⁻³ · A^{3/2}`);
+    /// for a sheet (negligible volume) whose summed normal is mostly along Y (a ground: models are
+    /// Y up, and a ground is seen from above), when it faces up.
+    pub fn outward(&self) -> Option<bool> {
+        if !(self.area2 > 0.0 && self.area2.is_finite()) {
+            return None;
+        }
+        let centroid = self.moment.map(|m| m / self.area2);
+        let volume6 = self.det - dot(centroid, self.normal);
+        let area = self.area2 / 2.0;
+        if volume6.abs() / 6.0 > SHEET_VOLUME * area * area.sqrt() {
+            return Some(volume6 > 0.0);
+        }
+        let [x, up, z] = self.normal;
+        if up.abs() >= x.abs().max(z.abs()) && up.abs() > SHEET_VOLUME * self.area2 {
+            return Some(up > 0.0);
+        }
+        None
     }
-    let centroid = centroid.map(|v| v / area2);
-    let mut volume6 = 0.0;
-    for &t in patch {
-        let [a, b, c] = corners(t).map(|p| sub(p, centroid));
-        volume6 += dot(a, cross(b, c));
-    }
-    let area = area2 / 2.0;
-    if volume6.abs() / 6.0 > SHEET_VOLUME * area * area.sqrt() {
-        return volume6 > 0.0;
-    }
-    // A sheet facing mostly up or down is a ground (or a table, a floor): models are Y up, and a
-    // ground is seen from above. Any other sheet (a wall, one triangle) has no side to tell by.
-    let up = normal[1];
-    if up.abs() >= normal[0].abs().max(normal[2].abs()) && up.abs() > SHEET_VOLUME * area2 {
-        return up > 0.0;
-    }
-    keep_majority
 }
 
 /// Twice the area of the patch's turned triangles (parity 1).
