@@ -5,7 +5,6 @@
 //! (the decimated Stanford bunny, with its duplicate slivers and fins) and models made here: a
 //! thin tube, a flat ground, a rough rock.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use pocketsplat_core::bake::{bake_grid, BakeOptions, TriMesh};
@@ -16,24 +15,7 @@ use pocketsplat_sim::render::Settings;
 use pocketsplat_sim::snapshot::render_file;
 use pocketsplat_sim::{demo, ply};
 
-use crate::common::model;
-
-/// An ASCII PLY of `m`.
-fn write_ply(m: &TriMesh, path: &Path) {
-    let mut s = format!(
-        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
-         property double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        m.positions.len(),
-        m.triangles.len()
-    );
-    for p in &m.positions {
-        let _ = writeln!(s, "{:e} {:e} {:e}", p[0], p[1], p[2]);
-    }
-    for t in &m.triangles {
-        let _ = writeln!(s, "3 {} {} {}", t[0], t[1], t[2]);
-    }
-    std::fs::write(path, s).unwrap();
-}
+use crate::common::{model, write_ply};
 
 /// `m` with every triangle reversed, or (`mixed`) about half of them, chosen by a fixed hash.
 fn rewound(m: &TriMesh, mixed: bool) -> TriMesh {

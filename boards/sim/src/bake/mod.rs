@@ -4,9 +4,10 @@
 //! mesh cut into pieces through spill files, the same bytes). `pocketsplat bake` chooses and
 //! writes; reports, scenes and tests bake through these.
 //!
-//! In memory the importer has wound the mesh outward (`TriMesh::orient`); out of core the faces
-//! are baked as the file winds them, since orienting needs every edge at once: the same bytes for
-//! a file wound outward (every Stanford scan), not for one wound inward or both ways.
+//! In memory the importer has wound the mesh outward, patch by patch (`TriMesh::orient`); out of
+//! core the edges are not all at hand, so a pass over the spilled faces decides for the mesh
+//! whole (`Facing`) and every later pass reads them turned if it winds inward: the same bytes
+//! for a file wound outward or inward throughout, not for one wound both ways.
 
 pub mod budget;
 pub mod ooc_qs;

@@ -339,6 +339,7 @@ pub fn bake_tg(
     let faces = Spilled {
         path: s.faces.path.clone(),
         count: s.faces.count,
+        turned: s.faces.turned,
     };
     let (tree, pieces) = cut.cell(frame.root(), faces, true)?;
 

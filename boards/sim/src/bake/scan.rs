@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::Result;
-use pocketsplat_core::bake::{MeshError, MAX_COORDINATE};
+use pocketsplat_core::bake::{Facing, MeshError, MAX_COORDINATE};
 
 use super::spill::{SpillDir, SpillWriter, Spilled};
 use crate::limits::Limits;
@@ -153,6 +153,24 @@ impl MeshSink for Sink {
     }
 }
 
+/// Whether the mesh, taken whole, winds inward ([`Facing`] over every face): then every later
+/// pass reads its faces turned. The in-memory importer decides per consistent patch
+/// ([`TriMesh::orient`](pocketsplat_core::bake::TriMesh::orient)); out of core the edges are not
+/// all at hand, so the mesh turns whole or not at all: the in-memory bytes for a file wound
+/// outward or inward throughout, not for one wound both ways. Faces with an index past the
+/// vertices are left to the pass that reports them.
+fn wound_inward(s: &Scan) -> Result<bool> {
+    let mut facing = Facing::default();
+    let n = s.positions.len();
+    s.faces.for_each(|t| {
+        if t.iter().all(|&v| (v as usize) < n) {
+            facing.add(t.map(|v| s.positions.get(v)));
+        }
+        Ok(())
+    })?;
+    Ok(facing.outward() == Some(false))
+}
+
 /// Reads `path` within `limits`: vertices into memory, faces into a spill file of `spill`;
 /// `read` is told the bytes of the file as they are read. Then checks what
 /// [`TriMesh::validate`](pocketsplat_core::bake::TriMesh::validate) checks of the vertices (the
@@ -200,5 +218,7 @@ pub fn scan(
     if let Some(vertex) = sink.too_large {
         return Err(scan.mesh_error(MeshError::TooLarge { vertex }).into());
     }
+    let mut scan = scan;
+    scan.faces.turned = wound_inward(&scan)?;
     Ok(scan)
 }

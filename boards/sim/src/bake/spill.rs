@@ -99,6 +99,7 @@ impl SpillWriter {
         Ok(Spilled {
             path,
             count: self.count,
+            turned: false,
         })
     }
 }
@@ -110,6 +111,9 @@ pub struct Spilled {
     pub path: PathBuf,
     /// Triangles in it.
     pub count: u64,
+    /// Read every triangle turned (its last two vertices swapped): a mesh the file winds inward
+    /// (`scan`'s facing pass).
+    pub turned: bool,
 }
 
 impl Spilled {
@@ -127,7 +131,11 @@ impl Spilled {
                 .with_context(|| format!("cannot read the spill file {}", self.path.display()))?;
             let v =
                 |k: usize| u32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
-            each([v(0), v(1), v(2)])?;
+            each(if self.turned {
+                [v(0), v(2), v(1)]
+            } else {
+                [v(0), v(1), v(2)]
+            })?;
         }
         Ok(())
     }
