@@ -453,6 +453,7 @@ impl RecordBytes for &[u8] {
 
 /// One group's bytes copied out of a block cache: the fragment from offset `base` on.
 #[derive(Clone, Debug)]
+#[cfg_attr(not(feature = "stream"), allow(dead_code))]
 pub(crate) struct GroupBytes<const N: usize> {
     pub(crate) bytes: [u8; N],
     pub(crate) base: u32,

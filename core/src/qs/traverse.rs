@@ -238,16 +238,21 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         }
     }
 
-    fn members(&mut self, records: N::Records, parent: &Sphere, level: u8, flags: Flags) {
+    fn members(&mut self, mut records: N::Records, parent: &Sphere, level: u8, flags: Flags) {
         let r13 = thirteenth_up(parent.r);
-        for (i, (at, node, child)) in records.enumerate() {
-            if self.nodes.skip(level, i) {
-                continue;
+        // `while let` and a counter, not `for` over `enumerate` (or over the records): on
+        // thumbv7m the `for` forms cost 4 to 11 instructions more per node (std 1 px: 471.5 with
+        // `enumerate`, 464.5 with `for`, 460.2 so).
+        let mut i = 0;
+        #[allow(clippy::while_let_on_iterator)]
+        while let Some((at, node, child)) = records.next() {
+            if !self.nodes.skip(level, i) {
+                self.node(at, &node, child, parent, r13, level, flags);
+                if self.nodes.done() {
+                    return;
+                }
             }
-            self.node(at, &node, child, parent, r13, level, flags);
-            if self.nodes.done() {
-                return;
-            }
+            i += 1;
         }
     }
 
@@ -312,11 +317,17 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
             ((i64::from(r13) * i64::from(sum) + (1 << (T_BITS - 1))) >> T_BITS) as i32
         };
         let s = Sphere {
-            c: [
-                parent.c[0].wrapping_add(a.wrapping_mul(r13)),
-                parent.c[1].wrapping_add(b.wrapping_mul(r13)),
-                parent.c[2].wrapping_add(c.wrapping_mul(r13)),
-            ],
+            // The model-space centre serves only the cone test: below a node facing the eye
+            // nothing tests, so it is not kept up.
+            c: if flags.facing {
+                parent.c
+            } else {
+                [
+                    parent.c[0].wrapping_add(a.wrapping_mul(r13)),
+                    parent.c[1].wrapping_add(b.wrapping_mul(r13)),
+                    parent.c[2].wrapping_add(c.wrapping_mul(r13)),
+                ]
+            },
             xyw: [
                 parent.xyw[0].wrapping_add(step(0)),
                 parent.xyw[1].wrapping_add(step(1)),
