@@ -447,23 +447,10 @@ fn the_shadow_report_ranks_no_shadows_below_both_algorithms() {
 
 /// The box over the plane as ASCII PLY.
 fn scene_ply() -> String {
-    let mesh = merge(
+    crate::common::ply_text(&merge(
         square(1.0, 0.0),
         &boxmesh([-0.25, 0.3, -0.2], [0.2, 0.6, 0.25]),
-    );
-    let mut s = format!(
-        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
-         property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        mesh.positions.len(),
-        mesh.triangles.len()
-    );
-    for p in &mesh.positions {
-        s += &format!("{} {} {}\n", p[0], p[1], p[2]);
-    }
-    for t in &mesh.triangles {
-        s += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
-    }
-    s
+    ))
 }
 
 fn json(out: &Output) -> serde_json::Value {

@@ -76,21 +76,26 @@ pub fn succeeds(dir: &Path, args: &[&str]) -> Output {
     succeeds_with(&mut command(args, dir), args)
 }
 
-/// An ASCII PLY of `m`.
-pub fn write_ply(m: &pocketsplat_core::bake::TriMesh, path: &std::path::Path) {
+/// `m` as an ASCII PLY file's text, positions as `double` (`{:e}`: the shortest text that reads
+/// back as the same f64).
+pub fn ply_text(m: &pocketsplat_core::bake::TriMesh) -> String {
+    use std::fmt::Write as _;
     let mut s = format!(
         "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
          property double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
         m.positions.len(),
         m.triangles.len()
     );
-    use std::fmt::Write as _;
-    // `{:e}`: the shortest text that reads back as the same f64.
     for p in &m.positions {
         let _ = writeln!(s, "{:e} {:e} {:e}", p[0], p[1], p[2]);
     }
     for t in &m.triangles {
         let _ = writeln!(s, "3 {} {} {}", t[0], t[1], t[2]);
     }
-    std::fs::write(path, s).unwrap();
+    s
+}
+
+/// [`ply_text`] of `m` written to `path`.
+pub fn write_ply(m: &pocketsplat_core::bake::TriMesh, path: &std::path::Path) {
+    std::fs::write(path, ply_text(m)).unwrap();
 }
