@@ -52,6 +52,15 @@ fn ground(n: u32) -> TriMesh {
     m
 }
 
+/// A ground with a hollow in it (a crater, a valley): its signed volume says down, a ground is up.
+fn hollow_ground(n: u32) -> TriMesh {
+    let mut m = ground(n);
+    for p in &mut m.positions {
+        p[1] = -0.5 * (-(p[0] * p[0] + p[2] * p[2]) / 0.2).exp();
+    }
+    m
+}
+
 /// A rough rock: a sphere of `n` rings displaced by a fixed bumpy pattern, wound outward.
 fn rock(n: usize) -> TriMesh {
     let mut m = pocketsplat_sim::report::stability::blob(n);
@@ -127,6 +136,11 @@ fn a_thin_tube_wound_either_way_renders_alike() {
 #[test]
 fn a_flat_ground_wound_either_way_renders_alike() {
     check("ground", &ground(24));
+}
+
+#[test]
+fn a_ground_with_a_hollow_wound_either_way_renders_alike() {
+    check("hollow", &hollow_ground(32));
 }
 
 #[test]

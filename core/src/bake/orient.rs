@@ -21,6 +21,8 @@
 //!    - a speck (under 10⁻³ of the mesh's area: a scan's floating debris) turns if most of the mesh
 //!      did, and so do triangles on the same three vertices as another (duplicates), left out of
 //!      step 1, and triangles of no area, left out too (they have no side);
+//!    - a ground (normals mostly one way, and that way along Y: `|Σn| > 0.7 · Σ|n|`) faces up,
+//!      hollows and all;
 //!    - any other patch: the sign of its signed volume about its area centroid
 //!      (`Σ det(a − c, b − c, d − c) / 6`: positive when it winds counter-clockwise seen from
 //!      outside, for closed surfaces and open ones such as a scan with holes or a tube); where the
@@ -72,6 +74,9 @@ impl TriMesh {
 /// Below this `|V| / A^{3/2}` a patch is a sheet (a hemisphere has 0.13, a long thin open tube
 /// more than 0.01).
 const SHEET_VOLUME: f64 = 1e-3;
+
+/// Above this `|Σn| / Σ|n|` with `Σn` mostly along Y, a surface is a ground.
+const GROUND: f64 = 0.7;
 
 /// The most memory [`orientation_flips`] takes per triangle, beside the mesh: 36 bytes of edge
 /// uses and about 12 of manifold pairs at the peak, with a few flags per triangle.
@@ -313,13 +318,21 @@ impl Facing {
     /// Whether the surface as wound faces out (`Some(true)`) or in (`Some(false)`), or `None`
     /// when nothing tells (a sheet that is not a ground; no area).
     ///
-    /// Out when its signed volume about its area centroid `c`, `Σ det(a − c, b − c, d − c) / 6 =
+    /// A ground (normals mostly one way, `|Σn| > 0.7 · Σ|n|`, and that way along Y: models are Y
+    /// up, and a ground is seen from above) faces out when it faces up, hollows and all. Else out
+    /// when its signed volume about its area centroid `c`, `Σ det(a − c, b − c, d − c) / 6 =
     /// (Σ det(a, b, d) − c · Σ n) / 6`, is positive and not negligible (`|V| > 10⁻³ · A^{3/2}`);
-    /// for a sheet (negligible volume) whose summed normal is mostly along Y (a ground: models are
-    /// Y up, and a ground is seen from above), when it faces up.
+    /// for a sheet (negligible volume) whose summed normal is mostly along Y, when it faces up.
     pub fn outward(&self) -> Option<bool> {
         if !(self.area2 > 0.0 && self.area2.is_finite()) {
             return None;
+        }
+        let [x, up, z] = self.normal;
+        let mostly_y = up.abs() >= x.abs().max(z.abs());
+        // A ground with hills and hollows (its normals mostly one way, `|Σn| > 0.7 Σ|n|`, and
+        // that way Y): up, whatever its volume says (a hollow's would say down).
+        if mostly_y && up.abs() > GROUND * self.area2 {
+            return Some(up > 0.0);
         }
         let centroid = self.moment.map(|m| m / self.area2);
         let volume6 = self.det - dot(centroid, self.normal);
@@ -327,8 +340,7 @@ impl Facing {
         if volume6.abs() / 6.0 > SHEET_VOLUME * area * area.sqrt() {
             return Some(volume6 > 0.0);
         }
-        let [x, up, z] = self.normal;
-        if up.abs() >= x.abs().max(z.abs()) && up.abs() > SHEET_VOLUME * self.area2 {
+        if mostly_y && up.abs() > SHEET_VOLUME * self.area2 {
             return Some(up > 0.0);
         }
         None
