@@ -9,7 +9,8 @@
 //! the same mesh with any triangles reversed all orient to the same triangles, and the bake, the
 //! device and the f64 reference all see the oriented mesh ([`TriMesh::orient`]).
 //!
-//! 1. **Consistent patches.** Two triangles that share an edge and no third one (a manifold edge)
+//! 1. **Consistent patches.** Vertices at the same position are one (a mesh cut along seams is one
+//!    surface). Two triangles that share an edge and no third one (a manifold edge)
 //!    must cross it in opposite directions. A breadth-first walk over those edges, from the lowest
 //!    numbered triangle not yet reached, gives each triangle a parity (turn it or not) relative to
 //!    its patch's first triangle. A triangle reached twice with different parities (a Möbius strip,
@@ -36,8 +37,9 @@
 //! triangle turned); the same mesh reversed orients to it exactly; with triangles reversed at
 //! random, to it but for specks and duplicates.
 //!
-//! Time `O(T log T)`; at most 56 bytes per triangle while it runs ([`ORIENT_BYTES_PER_TRIANGLE`]).
+//! Time `O(T log T)`; at most 72 bytes per triangle while it runs ([`ORIENT_BYTES_PER_TRIANGLE`]).
 
+use rayon::prelude::*;
 use std::collections::{HashMap, HashSet};
 use std::vec;
 use std::vec::Vec;
@@ -79,8 +81,8 @@ const SHEET_VOLUME: f64 = 1e-3;
 const GROUND: f64 = 0.7;
 
 /// The most memory [`orientation_flips`] takes per triangle, beside the mesh: 36 bytes of edge
-/// uses and about 12 of manifold pairs at the peak, with a few flags per triangle.
-pub const ORIENT_BYTES_PER_TRIANGLE: u64 = 56;
+/// uses and about 12 of manifold pairs at the peak, with the welded triangles (12) and a few flags.
+pub const ORIENT_BYTES_PER_TRIANGLE: u64 = 72;
 
 /// A patch with less than this share of the mesh's area is a speck.
 const SPECK: f64 = 1e-3;
@@ -89,11 +91,8 @@ const SPECK: f64 = 1e-3;
 /// range ([`TriMesh::validate`]).
 pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>, Orientation) {
     let n = triangles.len();
-    // Triangles on the same three vertices as another (duplicates, either winding: a decimated
-    // scan's two-sided slivers) are left out, and turned only if most of the mesh is: their edges
-    // would look branching and unbalanced, and which of them is the outside cannot be told.
-    let twin = twins(triangles);
-    // Triangles of no area have no side: left out too, and turned with the mesh.
+    let welded = weld(positions, triangles);
+    // Triangles of no area have no side: left out, and turned with the mesh.
     let flat: Vec<bool> = triangles
         .iter()
         .map(|t| {
@@ -102,8 +101,20 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
             dot(n, n) == 0.0
         })
         .collect();
-    let left_out: Vec<bool> = twin.iter().zip(&flat).map(|(&d, &f)| d || f).collect();
-    let adjacency = Adjacency::new(triangles, &left_out);
+    let mut adjacency = Adjacency::new(&welded, &flat);
+    // Triangles on the same three vertices as another (duplicates, either winding: a decimated
+    // scan's two-sided slivers) are left out too, and turned only if most of the mesh is: their
+    // edges would look branching and unbalanced, and which of them is the outside cannot be told.
+    // Only a mesh with a branching edge or a pair crossing an edge the same way can have ones that
+    // matter (a lone two-sided pair is a closed patch with no side, which turns with the mesh
+    // anyway): the others are spared the search.
+    let mut left_out = flat;
+    if !adjacency.clean {
+        for (out, twin) in left_out.iter_mut().zip(twins(&welded)) {
+            *out |= twin;
+        }
+        adjacency = Adjacency::new(&welded, &left_out);
+    }
     // Parity per triangle: 0 or 1, 2 while not reached. Patches: ranges of `order`.
     let mut parity = vec![2u8; n];
     let mut report = Orientation::default();
@@ -134,6 +145,8 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
                 }
             }
         }
+        // In file order from here on: the passes below then read the mesh in sequence.
+        order[first..].par_sort_unstable();
         patches.push((first, order.len()));
     }
     report.patches = patches.len();
@@ -176,8 +189,11 @@ pub fn orientation_flips(positions: &[V3], triangles: &[[u32; 3]]) -> (Vec<bool>
         let (s, e) = patches[p];
         let patch = &order[s..e];
         own.clear();
-        for &t in patch {
-            let tri = triangles[t as usize];
+        for &t in patch
+            .iter()
+            .filter(|&&t| adjacency.on_branching[t as usize])
+        {
+            let tri = welded[t as usize];
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 let key = key(a, b);
@@ -250,6 +266,30 @@ fn file_turned(kept_area: f64, turned_area: f64) -> bool {
     turned_area > kept_area
 }
 
+/// The triangles with every vertex replaced by the first vertex at the same position: a mesh cut
+/// along seams (vertices repeated for texture or normal breaks, a generated sphere's cube faces)
+/// is one surface to orient, not a patch per piece.
+fn weld(positions: &[V3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    // `+ 0.0`: −0 and 0 are one position.
+    let mut order: Vec<([u64; 3], u32)> = positions
+        .iter()
+        .enumerate()
+        .map(|(v, p)| (p.map(|c| (c + 0.0).to_bits()), v as u32))
+        .collect();
+    order.par_sort_unstable();
+    let mut canon: Vec<u32> = (0..positions.len() as u32).collect();
+    for run in order.chunk_by(|u, v| u.0 == v.0) {
+        for &(_, v) in run {
+            canon[v as usize] = run[0].1;
+        }
+    }
+    drop(order);
+    triangles
+        .iter()
+        .map(|t| t.map(|v| canon[v as usize]))
+        .collect()
+}
+
 /// For each triangle, whether another one is on the same three vertices.
 fn twins(triangles: &[[u32; 3]]) -> Vec<bool> {
     let mut keys: Vec<([u32; 3], u32)> = triangles
@@ -261,7 +301,7 @@ fn twins(triangles: &[[u32; 3]]) -> Vec<bool> {
             (k, t as u32)
         })
         .collect();
-    keys.sort_unstable();
+    keys.par_sort_unstable();
     let mut twin = vec![false; triangles.len()];
     for w in keys.windows(2) {
         if w[0].0 == w[1].0 {
@@ -368,6 +408,10 @@ struct Adjacency {
     links: Vec<u32>,
     /// Edges of three triangles or more.
     branching: HashSet<u64>,
+    /// Triangles with such an edge.
+    on_branching: Vec<bool>,
+    /// No branching edge, and no two triangles crossing an edge the same way.
+    clean: bool,
 }
 
 impl Adjacency {
@@ -386,18 +430,26 @@ impl Adjacency {
                 }
             }
         }
-        edges.sort_unstable();
+        // By edge only: the order of an edge's uses changes nothing below.
+        edges.par_sort_unstable_by_key(|e| (u64::from(e[0]) << 32) | u64::from(e[1]));
         // Manifold edges as [s, t << 1 | same].
         let mut pairs: Vec<[u32; 2]> = Vec::new();
         let mut branching = HashSet::new();
+        let mut on_branching = vec![false; triangles.len()];
+        let mut clean = true;
         for run in edges.chunk_by(|e, f| e[..2] == f[..2]) {
             if let [e, f] = run {
                 let (s, t) = (e[2], f[2]);
                 if s >> 1 != t >> 1 {
-                    pairs.push([s >> 1, (t & !1) | u32::from((s & 1) == (t & 1))]);
+                    let same = (s & 1) == (t & 1);
+                    clean &= !same;
+                    pairs.push([s >> 1, (t & !1) | u32::from(same)]);
                 }
             } else if run.len() > 2 {
                 branching.insert(key(run[0][0], run[0][1]));
+                for e in run {
+                    on_branching[(e[2] >> 1) as usize] = true;
+                }
             }
         }
         drop(edges);
@@ -421,7 +473,9 @@ impl Adjacency {
         Self {
             start,
             links,
+            clean: clean && branching.is_empty(),
             branching,
+            on_branching,
         }
     }
 
@@ -551,6 +605,28 @@ mod tests {
         let before = double.clone();
         assert_eq!(double.orient().flipped, 0);
         assert_eq!(double, before);
+    }
+
+    #[test]
+    fn a_mesh_cut_along_seams_is_one_surface() {
+        // The octahedron with every triangle on its own three vertices (24 in all, as a mesh
+        // exported with flat normals is): its bottom faces down, not up like a ground.
+        let m = octahedron();
+        let mut cut = TriMesh::default();
+        for t in &m.triangles {
+            let base = cut.positions.len() as u32;
+            cut.positions.extend(t.map(|v| m.positions[v as usize]));
+            cut.triangles.push([base, base + 1, base + 2]);
+        }
+        let outward = cut.clone();
+        let mut reversed = cut.clone();
+        for t in &mut reversed.triangles {
+            t.swap(1, 2);
+        }
+        assert_eq!(cut.orient().flipped, 0);
+        assert_eq!(cut, outward);
+        assert_eq!(reversed.orient().flipped, 8);
+        assert_eq!(reversed, outward);
     }
 
     #[test]
