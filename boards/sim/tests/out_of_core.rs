@@ -141,11 +141,21 @@ fn a_scan_wound_inward_bakes_out_of_core_to_the_outward_bytes() {
         t.swap(0, 1);
     }
     common::write_ply(&inward, &d.join("in.ply"));
+    let said = |o: &std::process::Output| {
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr)
+    };
     for (format, piece) in [("tg", "3000"), ("qs", "2000")] {
-        succeeds(d, &["bake", "out.ply", "-o", "out.bin", "--format", format]);
-        succeeds(
+        let plain = succeeds(d, &["bake", "out.ply", "-o", "out.bin", "--format", format]);
+        assert!(!said(&plain).contains("turned"), "{}", said(&plain));
+        let memory = succeeds(
             d,
             &["bake", "in.ply", "-o", "memory.bin", "--format", format],
+        );
+        let n = mesh.triangles.len();
+        assert!(
+            said(&memory).contains(&format!("{n} triangles turned to wind outward")),
+            "{}",
+            said(&memory)
         );
         let run = succeeds(
             d,
@@ -163,6 +173,11 @@ fn a_scan_wound_inward_bakes_out_of_core_to_the_outward_bytes() {
         );
         let err = String::from_utf8_lossy(&run.stderr);
         assert!(pieces(&err) >= 10, "{format}: {err}");
+        assert!(
+            said(&run).contains("the mesh winds inward: read turned"),
+            "{}",
+            said(&run)
+        );
         let read = |f: &str| std::fs::read(d.join(f)).unwrap();
         assert!(read("memory.bin") == read("out.bin"), "{format}: in memory");
         assert!(

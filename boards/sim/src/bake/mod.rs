@@ -28,6 +28,17 @@ use pocketsplat_core::tg::write::write_tg;
 
 use crate::ply;
 
+/// What a bake's summary says of the mesh's winding: nothing when the file wound it outward;
+/// `whole`: an out-of-core bake, which turns the mesh whole or not at all.
+pub fn turned_note(turned: usize, whole: bool) -> String {
+    match (turned, whole) {
+        (0, _) => String::new(),
+        (_, true) => "; the mesh winds inward: read turned".to_owned(),
+        (1, false) => "; 1 triangle turned to wind outward".to_owned(),
+        (n, false) => format!("; {n} triangles turned to wind outward"),
+    }
+}
+
 /// The point formats a mesh bakes into.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BakeFormat {
@@ -332,6 +343,8 @@ pub struct QsBakeReport {
     pub load: Duration,
     /// Time spent baking (tree, quantization, layout), not loading.
     pub bake: Duration,
+    /// What orienting the mesh did as it was read.
+    pub orientation: pocketsplat_core::bake::Orientation,
 }
 
 /// Loads `mesh_path` and bakes it into a `.qs` file in memory.
@@ -340,7 +353,7 @@ pub struct QsBakeReport {
 /// Mesh import or bake errors, naming the file.
 pub fn bake_qs_file(mesh_path: &Path, opts: &QsBakeOptions) -> Result<QsBakeReport> {
     let t0 = Instant::now();
-    let mesh = ply::load_mesh(mesh_path)?;
+    let (mesh, orientation) = ply::load_mesh_oriented(mesh_path, &crate::limits::current())?;
     let load = t0.elapsed();
     let t1 = Instant::now();
     let baked =
@@ -349,6 +362,7 @@ pub fn bake_qs_file(mesh_path: &Path, opts: &QsBakeOptions) -> Result<QsBakeRepo
         baked,
         load,
         bake: t1.elapsed(),
+        orientation,
     })
 }
 

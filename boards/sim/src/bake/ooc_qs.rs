@@ -51,6 +51,8 @@ pub struct OocQs {
     pub largest_piece: u64,
     /// The phases' names and times.
     pub phases: Vec<(&'static str, std::time::Duration)>,
+    /// The file wound inward and was read turned (`scan`'s facing pass).
+    pub turned: bool,
 }
 
 /// The points: every vertex's position, radius and normal sum (a vertex with radius 0 is no
@@ -134,6 +136,7 @@ pub fn bake_qs(
     let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     let bar = phases.start("reading", file_len, Unit::Bytes);
     let s = scan(path, limits, &spill, &|n| bar.inc(n))?;
+    let turned = s.faces.turned;
 
     // Each vertex's radius and normal sum, over the faces in order.
     let bar = phases.start("points", s.faces.count, Unit::Triangles);
@@ -252,5 +255,6 @@ pub fn bake_qs(
         pieces: plan.pieces(),
         largest_piece,
         phases,
+        turned,
     })
 }

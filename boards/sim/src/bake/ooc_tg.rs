@@ -47,6 +47,8 @@ pub struct OocGrid {
     pub largest_piece: u64,
     /// The phases' names and times.
     pub phases: Vec<(&'static str, std::time::Duration)>,
+    /// The file wound inward and was read turned (`scan`'s facing pass).
+    pub turned: bool,
 }
 
 /// The vertices' normals, summed in mesh order as the in-memory baker sums them.
@@ -292,6 +294,7 @@ pub fn bake_tg(
     let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     let bar = phases.start("reading", file_len, Unit::Bytes);
     let s = scan(path, limits, &spill, &|n| bar.inc(n))?;
+    let turned = s.faces.turned;
 
     let bar = phases.start("normals", s.faces.count, Unit::Triangles);
     let (normals, bounds, area) = normals(&s, &bar)?;
@@ -374,6 +377,7 @@ pub fn bake_tg(
         pieces: n_pieces,
         largest_piece,
         phases,
+        turned,
     })
 }
 

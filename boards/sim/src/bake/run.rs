@@ -12,7 +12,7 @@ use pocketsplat_core::tg::write::{write_tg_as, Layout};
 
 use super::budget::{human, peak_rss};
 use super::progress::phase_times;
-use super::{bake_qs_file, estimate_bake, BakeFormat, OocOptions};
+use super::{bake_qs_file, estimate_bake, turned_note, BakeFormat, OocOptions};
 use crate::fsutil::write_atomic;
 use crate::limits::Limits;
 
@@ -158,10 +158,11 @@ fn bake_qs_job(
         let s = report.baked.stats;
         return Ok((
             format!(
-                "{}; loaded in {:.2} s, baked in {:.2} s",
+                "{}; loaded in {:.2} s, baked in {:.2} s{}",
                 describe(&s, report.baked.color),
                 report.load.as_secs_f64(),
-                report.bake.as_secs_f64()
+                report.bake.as_secs_f64(),
+                turned_note(report.orientation.flipped, false)
             ),
             s.file_bytes,
             None,
@@ -171,7 +172,11 @@ fn bake_qs_job(
     let note = ooc_note(done.pieces, done.largest_piece, "points", &done.phases)
         .replace("{budget}", &human(job.ooc.budget));
     Ok((
-        describe(&done.stats, done.color),
+        format!(
+            "{}{}",
+            describe(&done.stats, done.color),
+            turned_note(usize::from(done.turned), true)
+        ),
         done.stats.file_bytes,
         Some(note),
     ))
@@ -190,7 +195,7 @@ fn bake_tg_job(
     };
     if in_memory {
         let limit = if job.force { u64::MAX } else { job.ooc.budget };
-        let mesh = crate::ply::load_mesh_with(&job.mesh, limits)?;
+        let (mesh, orientation) = crate::ply::load_mesh_oriented(&job.mesh, limits)?;
         let fits = job.force
             || estimate_bake(&mesh, job.grid)
                 .with_context(|| format!("{}: cannot bake", job.mesh.display()))?
@@ -208,9 +213,10 @@ fn bake_tg_job(
             write_atomic(&job.out, &bytes)?;
             return Ok((
                 format!(
-                    "{}; baked in {:.2} s",
+                    "{}; baked in {:.2} s{}",
                     describe(&grid, bytes.len()),
-                    t.elapsed().as_secs_f64()
+                    t.elapsed().as_secs_f64(),
+                    turned_note(orientation.flipped, false)
                 ),
                 bytes.len() as u64,
                 None,
@@ -226,7 +232,11 @@ fn bake_tg_job(
     let note = ooc_note(done.pieces, done.largest_piece, "triangles", &phases)
         .replace("{budget}", &human(job.ooc.budget));
     Ok((
-        describe(&done.grid, bytes.len()),
+        format!(
+            "{}{}",
+            describe(&done.grid, bytes.len()),
+            turned_note(usize::from(done.turned), true)
+        ),
         bytes.len() as u64,
         Some(note),
     ))

@@ -57,7 +57,7 @@ use std::io::{self, BufRead, BufReader, Read};
 use std::path::Path;
 
 use flate2::read::MultiGzDecoder;
-use pocketsplat_core::bake::TriMesh;
+use pocketsplat_core::bake::{Orientation, TriMesh};
 
 use crate::limits::{self, Limits};
 use body::Body;
@@ -101,6 +101,17 @@ pub fn load_mesh(path: &Path) -> Result<TriMesh, PlyError> {
 /// As [`load_mesh`], and [`PlyError::Limit`] or [`PlyError::TooShort`] when the file declares more
 /// than the limits or its bytes allow. A folder, device or FIFO is refused ([`PlyError::Io`]).
 pub fn load_mesh_with(path: &Path, limits: &Limits) -> Result<TriMesh, PlyError> {
+    load_mesh_oriented(path, limits).map(|(mesh, _)| mesh)
+}
+
+/// [`load_mesh_with`], with what orienting the mesh did (a bake says how many triangles turned).
+///
+/// # Errors
+/// As [`load_mesh_with`].
+pub fn load_mesh_oriented(
+    path: &Path,
+    limits: &Limits,
+) -> Result<(TriMesh, Orientation), PlyError> {
     let (file, reader, len) = open(path)?;
     load(&file, reader, limits, Some(len))
 }
@@ -135,7 +146,7 @@ fn open(path: &Path) -> Result<(String, File, u64), PlyError> {
 /// # Errors
 /// As [`load_mesh_with`].
 pub fn load_mesh_from_reader(name: &str, reader: impl Read + Send) -> Result<TriMesh, PlyError> {
-    load(name, reader, &limits::current(), None)
+    load(name, reader, &limits::current(), None).map(|(mesh, _)| mesh)
 }
 
 /// [`load_mesh_from_reader`] within `limits`.
@@ -147,7 +158,7 @@ pub fn load_mesh_from_reader_with(
     reader: impl Read + Send,
     limits: &Limits,
 ) -> Result<TriMesh, PlyError> {
-    load(name, reader, limits, None)
+    load(name, reader, limits, None).map(|(mesh, _)| mesh)
 }
 
 /// `len`: the reader's length in bytes when known (a regular file).
@@ -156,7 +167,7 @@ fn load(
     reader: impl Read + Send,
     limits: &Limits,
     len: Option<u64>,
-) -> Result<TriMesh, PlyError> {
+) -> Result<(TriMesh, Orientation), PlyError> {
     let mut sink = MeshBuilder::default();
     read_into(name, reader, limits, len, &mut sink)?;
     let mut mesh = sink.mesh;
@@ -167,8 +178,8 @@ fn load(
     })?;
     // Wound outward whatever way the file winds it: what the bake, the device and the f64
     // reference then all see (core `bake::orient`).
-    mesh.orient();
-    Ok(mesh)
+    let orientation = mesh.orient();
+    Ok((mesh, orientation))
 }
 
 /// What a PLY file's records are handed to, one at a time, in the order of the file: the
