@@ -394,28 +394,14 @@ fn qs_stream_frame(
     mark: impl FnMut(Phase),
 ) -> Result<Drawn, RenderError> {
     let sphere = pocketsplat_core::camera::Sphere::from_bounds(stream.bounds());
-    let camera = pocketsplat_core::camera::Camera::orbit(
+    streamed(
         sphere,
         view,
-        pocketsplat_core::camera::DEFAULT_FOV_DEG,
-    );
-    let options = RenderOptions {
         cutoff_px,
-        kernel: KERNEL,
-        ..RenderOptions::default()
-    };
-    let mut target = Target::new(
-        Framebuffer::new(targets.color, targets.depth),
-        targets.table,
-    );
-    render_qs_stream(
-        stream,
-        &camera,
-        &options,
-        &mut target,
-        pass,
-        &mut Direct,
-        mark,
+        targets,
+        |camera, options, target| {
+            render_qs_stream(stream, camera, options, target, pass, &mut Direct, mark)
+        },
     )
 }
 
@@ -522,6 +508,31 @@ fn stream_frame(
     mark: impl FnMut(Phase),
 ) -> Result<Drawn, RenderError> {
     let sphere = pocketsplat_core::camera::Sphere::from_bounds_f64(stream.header().bounds64);
+    streamed(
+        sphere,
+        view,
+        cutoff_px,
+        targets,
+        |camera, options, target| {
+            render_stream(stream, camera, options, target, pass, &mut Direct, mark)
+        },
+    )
+}
+
+/// The camera, options and target of a streamed frame of a model in `sphere` with the defaults
+/// of [`render_view`], handed to `draw` (either format's stream).
+#[cfg(feature = "stream")]
+fn streamed(
+    sphere: pocketsplat_core::camera::Sphere,
+    view: View,
+    cutoff_px: f32,
+    targets: &mut StreamTargets<'_>,
+    draw: impl FnOnce(
+        &pocketsplat_core::camera::Camera,
+        &RenderOptions,
+        &mut Target<'_, Framebuffer<'_>, 1>,
+    ) -> Result<Drawn, RenderError>,
+) -> Result<Drawn, RenderError> {
     let camera = pocketsplat_core::camera::Camera::orbit(
         sphere,
         view,
@@ -536,15 +547,7 @@ fn stream_frame(
         Framebuffer::new(targets.color, targets.depth),
         targets.table,
     );
-    render_stream(
-        stream,
-        &camera,
-        &options,
-        &mut target,
-        pass,
-        &mut Direct,
-        mark,
-    )
+    draw(&camera, &options, &mut target)
 }
 
 #[cfg(test)]
