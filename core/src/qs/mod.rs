@@ -27,6 +27,9 @@ pub use read::{
     ByteOrder, Children, Fragment, Group, Node, QSplat, QsCounts, QsError, Tree, TreeHead,
 };
 pub use traverse::{render_qs, render_qs_colored, ColorSink, QsWalk};
+// The streamed scene draws QSplat objects without their colours, as the resident scene does.
+#[cfg_attr(not(all(feature = "scene", feature = "stream")), allow(unused_imports))]
+pub(crate) use traverse::NoColor;
 
 /// The magic of every fragment.
 pub const MAGIC: [u8; 8] = crate::format::QS_MAGIC;

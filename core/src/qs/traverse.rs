@@ -14,7 +14,7 @@ pub use crate::splat::ColorSink;
 use crate::splat::{SampleSplat, SplatSink, Stats};
 
 /// Any sink, with colours ignored.
-struct NoColor<'s, S>(&'s mut S);
+pub(crate) struct NoColor<'s, S>(pub(crate) &'s mut S);
 
 impl<S: SplatSink> SplatSink for NoColor<'_, S> {
     #[inline(always)]

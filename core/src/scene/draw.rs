@@ -10,8 +10,12 @@
 //!   ([`LightSpace`]). Two-pass: every casting object fills the map, then every object is drawn
 //!   testing it. One-pass: objects are drawn in order of their distance from the light, nearest
 //!   first, the ground last, each testing and filling the shared map as it goes (Duguet §5.3 across
-//!   objects; see [`crate::shadow::render_tg_in_scene`] for where that is not exact). The last
-//!   object drawn fills nothing, since nothing is drawn after it.
+//!   objects). Where two objects overlap along the light, a part of the later one nearer the
+//!   light than a part of the earlier one cannot shadow it: that part of the map was not filled
+//!   yet when the earlier object was drawn (the one-pass limitation, now between objects as well
+//!   as within one). The last object drawn fills nothing, since nothing is drawn after it.
+//! - **Where the files are** ([`Objects`]): in memory (a [`Scene`] opened whole) or read through
+//!   block caches (`crate::stream::SceneStream`); one frame function draws both.
 //!
 //! Per frame one [`TgFrame`] (and [`LightFrame`]) is set in place for each object in turn, so RAM
 //! does not grow with the number of objects ([`ram_budget`]) and nothing is rebuilt that the last
@@ -32,15 +36,18 @@ use super::open::{Scene, SceneError, SceneStats};
 use super::ShadowMode;
 use super::{ObjectRecord, MAX_SLOTS};
 use crate::camera::Camera;
+use crate::frame::FrameError;
 use crate::frame::{RenderOptions, Walk};
 use crate::normal::NORMAL_BITS;
 #[cfg(feature = "qsplat")]
 use crate::qs::{render_qs, QsFrame};
 #[cfg(feature = "shadows")]
-use crate::shadow::{cast_shadow_map, render_tg_in_scene, LightFrame, ShadowMap};
+use crate::shadow::{Fill, LightFrame, OnePass, ShadowMap, TwoPass};
 use crate::splat::{ColorSink, SampleSplat, SplatSink, Stats};
 use crate::tg::frame::DepthRange;
-use crate::tg::{TgFrame, TriGrid};
+use crate::tg::read::Header;
+use crate::tg::traverse::{fill_tg, render_tg_with, NoShadows, ShadowHooks};
+use crate::tg::TgFrame;
 
 /// `slot << 13` for each file material index of an object: the slot of the scene's shading table
 /// its samples are shaded with; indices beyond the object's materials take its last (none: slot
@@ -141,13 +148,16 @@ impl<'a, 's> SceneWalk<'a, 's> {
 impl Walk for SceneWalk<'_, '_> {
     fn walk<S: ColorSink>(&mut self, sink: &mut S) -> Stats {
         let (scene, camera, options) = (self.scene, self.camera, self.options);
-        #[cfg(feature = "shadows")]
-        let r = match self.light.as_deref_mut() {
-            Some(light) => render_scene_in(scene, camera, options, self.map, light, sink),
-            None => render_scene(scene, camera, options, self.map, sink),
-        };
-        #[cfg(not(feature = "shadows"))]
-        let r = render_scene(scene, camera, options, self.map, sink);
+        let r = render_objects(
+            scene,
+            &mut Resident(scene),
+            camera,
+            options,
+            self.map,
+            #[cfg(feature = "shadows")]
+            self.light.as_deref_mut(),
+            sink,
+        );
         let total = r.as_ref().map(|s| s.total).unwrap_or_default();
         self.result = Some(r);
         total
@@ -172,13 +182,16 @@ pub fn render_scene<S: SplatSink>(
     shadow_depths: &mut [u16],
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    #[cfg(feature = "shadows")]
-    if opts.shadows != ShadowMode::Off {
-        let mut light = LightFrame::UNSET;
-        return render_shadowed(scene, camera, opts, shadow_depths, &mut light, sink);
-    }
-    let _ = shadow_depths;
-    render_unshadowed(scene, camera, opts, sink)
+    render_objects(
+        scene,
+        &mut Resident(scene),
+        camera,
+        opts,
+        shadow_depths,
+        #[cfg(feature = "shadows")]
+        None,
+        sink,
+    )
 }
 
 /// [`render_scene`] with each object's light frame set in `light` (whatever it held before):
@@ -196,39 +209,147 @@ pub fn render_scene_in<S: SplatSink>(
     light: &mut LightFrame,
     sink: &mut S,
 ) -> Result<SceneStats, SceneError> {
-    if opts.shadows == ShadowMode::Off {
-        return render_unshadowed(scene, camera, opts, sink);
+    render_objects(
+        scene,
+        &mut Resident(scene),
+        camera,
+        opts,
+        shadow_depths,
+        Some(light),
+        sink,
+    )
+}
+
+/// Where a scene's objects' files are read: in memory (every file of a [`Scene`] open,
+/// [`Resident`]) or through a block cache (`crate::stream::SceneStream`). A scene's frame walks
+/// each object through it, so both draw a scene by the same code (`render_objects`).
+pub(crate) trait Objects {
+    /// Object `i`'s tri-grid header (`None`: not a tri-grid).
+    fn grid_header(&self, i: usize) -> Option<Header>;
+    /// Draws object `i`'s tri-grid through `hooks` (the shadows of its frame).
+    fn draw_grid<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        i: usize,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+    ) -> Stats;
+    /// Casts object `i`'s tri-grid through `hooks` (the light pass of two-pass shadows); returns
+    /// nodes visited.
+    #[cfg_attr(not(feature = "shadows"), allow(dead_code))]
+    fn cast_grid<H: ShadowHooks>(&mut self, i: usize, frame: &TgFrame, hooks: &mut H) -> u32;
+    /// Draws object `i` when it is a QSplat file (`None` otherwise; by default, a build without
+    /// QSplat): its frame from `camera`, its depth over the scene's `range`, its colours ignored
+    /// (the scene shades by slot).
+    fn draw_qs<S: SplatSink>(
+        &mut self,
+        i: usize,
+        rec: &ObjectRecord<'_>,
+        camera: &Camera,
+        opts: &RenderOptions,
+        range: DepthRange,
+        sink: &mut S,
+    ) -> Option<Result<Stats, FrameError>> {
+        let _ = (i, rec, camera, opts, range, sink);
+        None
     }
-    render_shadowed(scene, camera, opts, shadow_depths, light, sink)
+}
+
+/// A scene's files in memory: [`Scene::open`] opened them all.
+pub(crate) struct Resident<'s, 'a>(pub &'s Scene<'a>);
+
+impl Objects for Resident<'_, '_> {
+    fn grid_header(&self, i: usize) -> Option<Header> {
+        self.0.grid(i).map(|g| *g.header())
+    }
+    fn draw_grid<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        i: usize,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+    ) -> Stats {
+        self.0
+            .grid(i)
+            .map_or_else(Stats::default, |g| render_tg_with(g, frame, hooks, sink))
+    }
+    fn cast_grid<H: ShadowHooks>(&mut self, i: usize, frame: &TgFrame, hooks: &mut H) -> u32 {
+        self.0.grid(i).map_or(0, |g| fill_tg(g, frame, hooks))
+    }
+    #[cfg(feature = "qsplat")]
+    fn draw_qs<S: SplatSink>(
+        &mut self,
+        i: usize,
+        rec: &ObjectRecord<'_>,
+        camera: &Camera,
+        opts: &RenderOptions,
+        range: DepthRange,
+        sink: &mut S,
+    ) -> Option<Result<Stats, FrameError>> {
+        let file = self.0.qsplat(i)?;
+        Some(
+            QsFrame::new(file, &rec.placement, camera, opts).map(|mut frame| {
+                frame.share_depth_range(range);
+                render_qs(file, &frame, sink)
+            }),
+        )
+    }
 }
 
 /// Sets `frame` to object `i`'s tri-grid frame, its depth mapped over the scene's `range`, and
-/// returns the object's grid (`None`: no object `i`). One frame is set in place per object in turn
+/// returns whether object `i` is a tri-grid. One frame is set in place per object in turn
 /// ([`TgFrame::set`]): nothing is copied out, and tables that repeat are kept.
-fn object_frame<'s, 'a>(
-    scene: &'s Scene<'a>,
+pub(crate) fn object_frame<O: Objects>(
+    scene: &Scene<'_>,
+    objects: &O,
     i: usize,
     camera: &Camera,
     opts: &RenderOptions,
     range: DepthRange,
     frame: &mut TgFrame,
-) -> Result<Option<&'s TriGrid<'a>>, SceneError> {
-    let (Some(grid), Some(rec)) = (scene.grid(i), scene.pack().object(i)) else {
+) -> Result<Option<Header>, SceneError> {
+    let (Some(header), Some(rec)) = (objects.grid_header(i), scene.pack().object(i)) else {
         return Ok(None);
     };
     frame
-        .set(grid.header(), &rec.placement, camera, opts)
+        .set(&header, &rec.placement, camera, opts)
         .map_err(|error| SceneError::Frame {
             object: i as u8,
             error,
         })?;
     frame.share_depth_range(range);
-    Ok(Some(grid))
+    Ok(Some(header))
+}
+
+/// One frame of `scene`, its objects' files read through `objects`, with the shadows `opts` ask
+/// for (the map and `light` used only then; `None`: a light frame on the stack): [`render_scene`]
+/// and the streamed scene's frame.
+pub(crate) fn render_objects<O: Objects, S: SplatSink>(
+    scene: &Scene<'_>,
+    objects: &mut O,
+    camera: &Camera,
+    opts: &RenderOptions,
+    shadow_depths: &mut [u16],
+    #[cfg(feature = "shadows")] light: Option<&mut LightFrame>,
+    sink: &mut S,
+) -> Result<SceneStats, SceneError> {
+    #[cfg(feature = "shadows")]
+    if opts.shadows != ShadowMode::Off {
+        let mut own = None;
+        let light = match light {
+            Some(l) => l,
+            None => own.insert(LightFrame::UNSET),
+        };
+        return render_shadowed(scene, objects, camera, opts, shadow_depths, light, sink);
+    }
+    let _ = shadow_depths;
+    render_unshadowed(scene, objects, camera, opts, sink)
 }
 
 #[cfg(feature = "shadows")]
-fn render_shadowed<S: SplatSink>(
+fn render_shadowed<O: Objects, S: SplatSink>(
     scene: &Scene<'_>,
+    objects: &mut O,
     camera: &Camera,
     opts: &RenderOptions,
     shadow_depths: &mut [u16],
@@ -257,35 +378,43 @@ fn render_shadowed<S: SplatSink>(
             let Some(rec) = scene.pack().object(i).filter(|r| r.casts_shadows) else {
                 continue;
             };
-            if let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? {
-                light.set_in_space(grid.header(), &rec.placement, &space);
-                stats.shadow_fill_nodes += cast_shadow_map(grid, &frame, light, &mut map);
+            if let Some(h) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? {
+                light.set_in_space(&h, &rec.placement, &space);
+                let mut fill = Fill::<false> {
+                    light,
+                    map: &mut map,
+                };
+                stats.shadow_fill_nodes += objects.cast_grid(i, &frame, &mut fill);
             }
         }
     }
     for (k, &i) in order[..n].iter().enumerate() {
         let i = usize::from(i);
         // QSplat has no shadow code: drawn unshadowed, casting nothing.
-        if let Some(st) = draw_qsplat(scene, i, camera, opts, range, sink)? {
+        if let Some(st) = draw_qsplat(scene, objects, i, camera, opts, range, sink)? {
             add(&mut stats.total, &st);
             stats.objects[i] = st;
             continue;
         }
-        let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? else {
+        let Some(h) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? else {
             continue;
         };
         let Some(rec) = scene.pack().object(i) else {
             continue;
         };
-        light.set_in_space(grid.header(), &rec.placement, &space);
-        // One-pass: an object that casts nothing, or the last one drawn, only tests.
-        let mode = if two_pass || !rec.casts_shadows || k + 1 == n {
-            ShadowMode::TwoPass
-        } else {
-            ShadowMode::OnePass
-        };
+        light.set_in_space(&h, &rec.placement, &space);
         let mut s = slotted(scene, i, sink);
-        let st = render_tg_in_scene(grid, &frame, light, &mut map, mode, &mut s);
+        // One-pass: an object that casts nothing, or the last one drawn, only tests.
+        let st = if two_pass || !rec.casts_shadows || k + 1 == n {
+            let mut test = TwoPass::<false> { light, map: &map };
+            objects.draw_grid(i, &frame, &mut test, &mut s)
+        } else {
+            let mut one = OnePass {
+                light,
+                map: &mut map,
+            };
+            objects.draw_grid(i, &frame, &mut one, &mut s)
+        };
         add(&mut stats.total, &st);
         stats.objects[i] = st;
     }
@@ -294,8 +423,9 @@ fn render_shadowed<S: SplatSink>(
     Ok(stats)
 }
 
-fn render_unshadowed<S: SplatSink>(
+fn render_unshadowed<O: Objects, S: SplatSink>(
     scene: &Scene<'_>,
+    objects: &mut O,
     camera: &Camera,
     opts: &RenderOptions,
     sink: &mut S,
@@ -304,16 +434,16 @@ fn render_unshadowed<S: SplatSink>(
     let mut frame = TgFrame::UNSET;
     let mut stats = SceneStats::default();
     for i in 0..scene.len() {
-        if let Some(st) = draw_qsplat(scene, i, camera, opts, range, sink)? {
+        if let Some(st) = draw_qsplat(scene, objects, i, camera, opts, range, sink)? {
             add(&mut stats.total, &st);
             stats.objects[i] = st;
             continue;
         }
-        let Some(grid) = object_frame(scene, i, camera, opts, range, &mut frame)? else {
+        if object_frame(scene, objects, i, camera, opts, range, &mut frame)?.is_none() {
             continue;
-        };
+        }
         let mut s = slotted(scene, i, sink);
-        let st = crate::tg::render_tg(grid, &frame, &mut s);
+        let st = objects.draw_grid(i, &frame, &mut NoShadows, &mut s);
         add(&mut stats.total, &st);
         stats.objects[i] = st;
     }
@@ -322,39 +452,26 @@ fn render_unshadowed<S: SplatSink>(
 
 /// Draws object `i` when it is a QSplat file (`None` otherwise): its own frame, its depth over the
 /// scene's `range`, its samples through the slot sink. Never shadowed.
-#[cfg(feature = "qsplat")]
-fn draw_qsplat<S: SplatSink>(
+fn draw_qsplat<O: Objects, S: SplatSink>(
     scene: &Scene<'_>,
+    objects: &mut O,
     i: usize,
     camera: &Camera,
     opts: &RenderOptions,
     range: DepthRange,
     sink: &mut S,
 ) -> Result<Option<Stats>, SceneError> {
-    let (Some(file), Some(rec)) = (scene.qsplat(i), scene.pack().object(i)) else {
+    let Some(rec) = scene.pack().object(i) else {
         return Ok(None);
     };
-    let mut frame =
-        QsFrame::new(file, &rec.placement, camera, opts).map_err(|error| SceneError::Frame {
+    let mut s = slotted(scene, i, sink);
+    objects
+        .draw_qs(i, &rec, camera, opts, range, &mut s)
+        .transpose()
+        .map_err(|error| SceneError::Frame {
             object: i as u8,
             error,
-        })?;
-    frame.share_depth_range(range);
-    let mut s = slotted(scene, i, sink);
-    Ok(Some(render_qs(file, &frame, &mut s)))
-}
-
-/// Without the `qsplat` feature [`Scene::open`] refuses QSplat objects: nothing to draw here.
-#[cfg(not(feature = "qsplat"))]
-fn draw_qsplat<S: SplatSink>(
-    _scene: &Scene<'_>,
-    _i: usize,
-    _camera: &Camera,
-    _opts: &RenderOptions,
-    _range: DepthRange,
-    _sink: &mut S,
-) -> Result<Option<Stats>, SceneError> {
-    Ok(None)
+        })
 }
 
 /// The slot sink of object `i` in front of `sink`.

@@ -19,7 +19,7 @@
 #![doc = include_str!("PACK.md")]
 
 mod budget;
-mod draw;
+pub(crate) mod draw;
 mod open;
 pub mod pack;
 #[cfg(feature = "bake")]
@@ -29,7 +29,7 @@ pub use budget::{ram_budget, shading_table_bytes, RamBudget};
 #[cfg(feature = "shadows")]
 pub use draw::render_scene_in;
 pub use draw::{render_scene, slot_attr, slot_bits, SceneWalk};
-pub use open::{Scene, SceneError, SceneStats};
+pub use open::{ObjectFile, Scene, SceneError, SceneStats};
 pub use pack::{Pack, PackError};
 
 use crate::camera::Placement;
@@ -51,6 +51,13 @@ pub const MAX_PATH_KEYS: usize = 256;
 pub const MIN_MAP_SIZE: usize = 16;
 /// See [`MIN_MAP_SIZE`].
 pub const MAX_MAP_SIZE: usize = 4096;
+/// The longest metadata a valid pack has (header and the four tables at their largest): what a
+/// stream reads before the objects ([`Pack::open_meta`]).
+pub const MAX_META_BYTES: usize = HEADER_BYTES
+    + MAX_OBJECTS * OBJECT_BYTES
+    + MAX_SLOTS * MATERIAL_BYTES
+    + MAX_VIEWS * VIEW_BYTES
+    + MAX_PATH_KEYS * PATH_BYTES;
 /// Bytes of a name field.
 pub const NAME_BYTES: usize = 16;
 /// Bytes of the header.
@@ -125,10 +132,13 @@ pub struct ObjectRecord<'a> {
     pub materials: u8,
     /// Slot of each file material index; entries at or beyond `materials` are `0xFF`.
     pub slots: [u8; MAX_SLOTS],
-    /// Its file's bytes.
+    /// Its file's bytes (empty when the pack was opened from its metadata alone,
+    /// [`Pack::open_meta`]: a stream reads them from `data_offset`).
     pub data: &'a [u8],
     /// Where they start in the pack.
     pub data_offset: u32,
+    /// How many there are.
+    pub data_len: u32,
     /// Where it sits in the world.
     pub placement: Placement,
     /// Depth the scene asked for.

@@ -61,6 +61,22 @@ pub enum SceneError {
         /// Depths given.
         given: u32,
     },
+    /// A streamed scene was given a different number of object streams than the pack has
+    /// objects.
+    Streams {
+        /// Objects in the pack.
+        objects: u8,
+        /// Streams given.
+        streams: u8,
+    },
+    /// A streamed object's stream is not of the kind its record says.
+    StreamKind {
+        /// The object.
+        object: u8,
+    },
+    /// A streamed scene's refined frame drawn in passes has no shadows (its frames from what is
+    /// resident do).
+    ShadowedPasses,
     /// An object is a QSplat file but this build has no QSplat reader (feature `qsplat`).
     NoQSplat {
         /// The object.
@@ -103,6 +119,19 @@ impl core::fmt::Display for SceneError {
             SceneError::ShadowBuffer { need, given } => write!(
                 f,
                 "the shadow map needs {need} depths but the buffer holds {given}"
+            ),
+            SceneError::Streams { objects, streams } => write!(
+                f,
+                "the pack has {objects} objects but {streams} streams were given"
+            ),
+            SceneError::StreamKind { object } => write!(
+                f,
+                "object {object}: its stream is not of the kind its record says"
+            ),
+            SceneError::ShadowedPasses => write!(
+                f,
+                "a streamed scene whose frame needs more blocks than the cache holds is drawn in \
+                 passes, without shadows: give a larger cache, or no shadows"
             ),
             SceneError::NoQSplat { object } => write!(
                 f,
@@ -155,42 +184,39 @@ fn placed_box(p: &camera::Placement, b: [[f32; 3]; 2]) -> [Vec3; 2] {
     out
 }
 
-impl<'a> Scene<'a> {
-    /// Opens every object's file of a validated pack with its own reader.
-    ///
-    /// # Errors
-    /// [`SceneError`] naming the first object whose file is damaged, not drawable, or carries more
-    /// materials than its record maps.
-    pub fn open(pack: Pack<'a>, verify: Verify) -> Result<Self, SceneError> {
-        let mut grids = [None; MAX_OBJECTS];
-        #[cfg(feature = "qsplat")]
-        let mut qsplats = [None; MAX_OBJECTS];
-        let mut bounds = [[[0.0; 3]; 2]; MAX_OBJECTS];
-        for i in 0..pack.object_count() {
-            let object = i as u8;
-            let Some(rec) = pack.object(i) else { break };
-            if rec.kind == Kind::QSplat {
-                #[cfg(feature = "qsplat")]
-                {
-                    let file = QSplat::open(rec.data)
-                        .map_err(|error| SceneError::QSplatObject { object, error })?;
-                    if rec.materials != 1 {
-                        return Err(SceneError::MaterialBits {
-                            object,
-                            bits: 0,
-                            materials: rec.materials,
-                        });
-                    }
-                    bounds[i] = placed_box(&rec.placement, file.bounds());
-                    qsplats[i] = Some(file);
-                    continue;
-                }
-                #[cfg(not(feature = "qsplat"))]
+/// What placing an object in a scene needs of its file, whoever holds the file: a tri-grid's
+/// header, or a QSplat file's box.
+#[derive(Clone, Copy, Debug)]
+pub enum ObjectFile<'h> {
+    /// A tri-grid (kind 1).
+    Grid(&'h crate::tg::Header),
+    /// A QSplat file (kind 2), its model-space box.
+    QSplat([[f32; 3]; 2]),
+}
+
+/// Checks object `i`'s file against its record (the kind it says, ρ, the material indices its
+/// record maps) and returns the file's placed box.
+fn place(
+    i: usize,
+    rec: &super::ObjectRecord<'_>,
+    file: ObjectFile<'_>,
+) -> Result<[Vec3; 2], SceneError> {
+    let object = i as u8;
+    match file {
+        ObjectFile::QSplat(b) => {
+            if !cfg!(feature = "qsplat") {
                 return Err(SceneError::NoQSplat { object });
             }
-            let grid = TriGrid::open(rec.data, verify)
-                .map_err(|error| SceneError::Object { object, error })?;
-            let h = *grid.header();
+            if rec.materials != 1 {
+                return Err(SceneError::MaterialBits {
+                    object,
+                    bits: 0,
+                    materials: rec.materials,
+                });
+            }
+            Ok(placed_box(&rec.placement, b))
+        }
+        ObjectFile::Grid(h) => {
             if h.rho > 3 {
                 return Err(SceneError::Rho { object, rho: h.rho });
             }
@@ -202,16 +228,70 @@ impl<'a> Scene<'a> {
                     materials: rec.materials,
                 });
             }
-            bounds[i] = placed_box(&rec.placement, h.bounds);
-            grids[i] = Some(grid);
+            Ok(placed_box(&rec.placement, h.bounds))
         }
-        Ok(Scene {
+    }
+}
+
+impl<'a> Scene<'a> {
+    /// Opens every object's file of a validated pack with its own reader.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the first object whose file is damaged, not drawable, or carries more
+    /// materials than its record maps.
+    pub fn open(pack: Pack<'a>, verify: Verify) -> Result<Self, SceneError> {
+        let mut scene = Self::placed(pack);
+        for i in 0..pack.object_count() {
+            let object = i as u8;
+            let Some(rec) = pack.object(i) else { break };
+            if rec.kind == Kind::QSplat {
+                #[cfg(feature = "qsplat")]
+                {
+                    let file = QSplat::open(rec.data)
+                        .map_err(|error| SceneError::QSplatObject { object, error })?;
+                    scene.bounds[i] = place(i, &rec, ObjectFile::QSplat(file.bounds()))?;
+                    scene.qsplats[i] = Some(file);
+                    continue;
+                }
+                #[cfg(not(feature = "qsplat"))]
+                return Err(SceneError::NoQSplat { object });
+            }
+            let grid = TriGrid::open(rec.data, verify)
+                .map_err(|error| SceneError::Object { object, error })?;
+            scene.bounds[i] = place(i, &rec, ObjectFile::Grid(grid.header()))?;
+            scene.grids[i] = Some(grid);
+        }
+        Ok(scene)
+    }
+
+    /// A scene whose objects' files are read elsewhere (streamed, `crate::stream`): the pack's
+    /// metadata ([`Pack::open_meta`]) and what `file` says of each object's file. Its camera, depth range, light space and order and shading are those
+    /// of the scene [`Scene::open`] gives for the same pack; it draws nothing itself
+    /// ([`Scene::grid`] and [`Scene::qsplat`] are `None`).
+    ///
+    /// # Errors
+    /// As [`Scene::open`], for what the files' headers say.
+    pub fn streamed<'h>(
+        pack: Pack<'a>,
+        mut file: impl FnMut(usize) -> ObjectFile<'h>,
+    ) -> Result<Self, SceneError> {
+        let mut scene = Self::placed(pack);
+        for i in 0..pack.object_count() {
+            let Some(rec) = pack.object(i) else { break };
+            scene.bounds[i] = place(i, &rec, file(i))?;
+        }
+        Ok(scene)
+    }
+
+    /// The pack with no file open yet.
+    fn placed(pack: Pack<'a>) -> Self {
+        Scene {
             pack,
-            grids,
+            grids: [None; MAX_OBJECTS],
             #[cfg(feature = "qsplat")]
-            qsplats,
-            bounds,
-        })
+            qsplats: [None; MAX_OBJECTS],
+            bounds: [[[0.0; 3]; 2]; MAX_OBJECTS],
+        }
     }
 
     /// The pack.

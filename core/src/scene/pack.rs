@@ -318,7 +318,10 @@ const MAX_COORD: f64 = 1e12;
 /// A validated scene pack (a flash slice, or a file read into RAM).
 #[derive(Clone, Copy, Debug)]
 pub struct Pack<'a> {
+    /// The whole pack, or its metadata alone ([`Pack::open_meta`]).
     bytes: &'a [u8],
+    /// The pack's length in bytes (the header's; `bytes.len()` when `bytes` is the whole pack).
+    file_len: u64,
     objects: u8,
     slots: u8,
     views: u8,
@@ -334,11 +337,40 @@ impl<'a> Pack<'a> {
     /// # Errors
     /// The first problem found, as a [`PackError`] naming where.
     pub fn open(bytes: &'a [u8]) -> Result<Self, PackError> {
-        let found = bytes.len() as u64;
+        Self::parse(bytes, bytes.len() as u64)
+    }
+
+    /// Validates a pack's metadata, the pack's first [`Pack::meta_len_of`] bytes (or more), as
+    /// [`Pack::open`] validates a whole pack, for a pack `file_len` bytes long that is read from a
+    /// medium in blocks: every check but the objects' own files, which a stream checks block by
+    /// block. [`ObjectRecord::data`] is then empty; `data_offset` and `data_len` say where each
+    /// object's file lies.
+    ///
+    /// # Errors
+    /// As [`Pack::open`]; [`PackError::LengthMismatch`] when the header's length is not
+    /// `file_len`.
+    pub fn open_meta(meta: &'a [u8], file_len: u64) -> Result<Self, PackError> {
+        let meta = match meta.get(16..20) {
+            Some(_) => meta.get(..Self::meta_len_of(meta) as usize).unwrap_or(meta),
+            None => meta,
+        };
+        Self::parse(meta, file_len)
+    }
+
+    /// The metadata length a pack's header (its first 20 bytes or more) announces; 0 when `head`
+    /// is shorter. A stream reads the header, then this many bytes ([`MAX_META_BYTES`] at most in
+    /// a valid pack).
+    pub fn meta_len_of(head: &[u8]) -> u32 {
+        head.get(16..20)
+            .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    fn parse(bytes: &'a [u8], file_len: u64) -> Result<Self, PackError> {
+        let found = file_len;
         if bytes.len() < HEADER_BYTES {
             return Err(PackError::TooShort {
                 need: HEADER_BYTES as u64,
-                found,
+                found: bytes.len() as u64,
             });
         }
         let c = Check(bytes);
@@ -411,7 +443,7 @@ impl<'a> Pack<'a> {
         if bytes.len() < meta {
             return Err(PackError::TooShort {
                 need: meta as u64,
-                found,
+                found: bytes.len() as u64,
             });
         }
         let stored = u32_at(bytes, 12);
@@ -437,6 +469,7 @@ impl<'a> Pack<'a> {
 
         let pack = Pack {
             bytes,
+            file_len,
             objects,
             slots,
             views,
@@ -531,7 +564,7 @@ impl<'a> Pack<'a> {
             if len == 0
                 || !offset.is_multiple_of(1u32 << align_log2)
                 || u64::from(offset) < data_end
-                || end > self.bytes.len() as u64
+                || end > self.file_len
             {
                 return Err(PackError::BadData {
                     object: i,
@@ -585,9 +618,13 @@ impl<'a> Pack<'a> {
         core::array::from_fn(|r| core::array::from_fn(|c| f64_at(self.bytes, at + 8 * (3 * r + c))))
     }
 
-    /// The whole pack.
+    /// The whole pack (its metadata alone when opened by [`Pack::open_meta`]).
     pub fn bytes(&self) -> &'a [u8] {
         self.bytes
+    }
+    /// The pack's length in bytes.
+    pub fn file_len(&self) -> u64 {
+        self.file_len
     }
     /// Number of objects (1..=16).
     pub fn object_count(&self) -> usize {
@@ -657,6 +694,7 @@ impl<'a> Pack<'a> {
             slots: core::array::from_fn(|m| u8_at(b, at + 20 + m)),
             data: b.get(offset..offset + len).unwrap_or(&[]),
             data_offset: offset as u32,
+            data_len: len as u32,
             placement: Placement {
                 rotation: self.rotation(i),
                 scale: f64_at(b, at + 112),

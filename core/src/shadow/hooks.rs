@@ -106,8 +106,8 @@ impl LightFrame {
 /// One-pass shadows (directional lights): test and fill as samples are drawn, nearest to the light
 /// first.
 pub struct OnePass<'l, 'm, 'b> {
-    pub(super) light: &'l LightFrame,
-    pub(super) map: &'m mut ShadowMap<'b>,
+    pub(crate) light: &'l LightFrame,
+    pub(crate) map: &'m mut ShadowMap<'b>,
 }
 
 impl OnePass<'_, '_, '_> {
@@ -203,8 +203,8 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
 /// The second pass of two-pass shadows: test only, against a map filled by [`super::fill_shadow_map`].
 /// `POINT`: the light is a point light (perspective map).
 pub struct TwoPass<'l, 'm, 'b, const POINT: bool> {
-    pub(super) light: &'l LightFrame,
-    pub(super) map: &'m ShadowMap<'b>,
+    pub(crate) light: &'l LightFrame,
+    pub(crate) map: &'m ShadowMap<'b>,
 }
 
 impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
@@ -231,9 +231,9 @@ impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
 
 /// The first pass of two-pass shadows: the whole grid's depth from the light, down to cells of one
 /// texel.
-pub(super) struct Fill<'l, 'm, 'b, const POINT: bool> {
-    pub(super) light: &'l LightFrame,
-    pub(super) map: &'m mut ShadowMap<'b>,
+pub(crate) struct Fill<'l, 'm, 'b, const POINT: bool> {
+    pub(crate) light: &'l LightFrame,
+    pub(crate) map: &'m mut ShadowMap<'b>,
 }
 
 impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {

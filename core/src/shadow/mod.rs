@@ -57,7 +57,7 @@
 mod hooks;
 mod light;
 
-use hooks::Fill;
+pub(crate) use hooks::Fill;
 pub use hooks::{OnePass, TwoPass};
 pub use light::{LightError, LightFrame, LightPos, LightSpace};
 
@@ -298,46 +298,6 @@ pub fn render_tg_shadowed<S: SplatSink>(
             };
             stats.nodes_visited += filled;
             stats
-        }
-    }
-}
-
-/// Lets a grid cast into a shadow map shared by a scene's objects, without clearing it: the first
-/// pass of two-pass scene shadows, once per object (then [`render_tg_in_scene`] per object). A
-/// directional light only. Returns nodes visited.
-pub fn cast_shadow_map(
-    grid: &TriGrid<'_>,
-    frame: &TgFrame,
-    light: &LightFrame,
-    map: &mut ShadowMap<'_>,
-) -> u32 {
-    fill_tg(grid, frame, &mut Fill::<false> { light, map })
-}
-
-/// Renders one object of a scene against the scene's shared shadow map, which is not cleared:
-/// - [`ShadowMode::OnePass`]: tests and fills as it draws. Call it for the objects in order of
-///   their distance from the light, nearest first (Duguet §5.3 applied across objects). Where two
-///   objects overlap along the light, a part of the later one nearer the light than a part of the
-///   earlier one cannot shadow it: that part of the map was not filled yet when the earlier object
-///   was drawn (the one-pass limitation, now between objects as well as within none).
-/// - [`ShadowMode::TwoPass`]: tests only, against a map every object has cast into first
-///   ([`cast_shadow_map`]).
-/// - [`ShadowMode::Off`]: no shadows.
-///
-/// `light` comes from [`LightFrame::in_space`] (directional).
-pub fn render_tg_in_scene<S: SplatSink>(
-    grid: &TriGrid<'_>,
-    frame: &TgFrame,
-    light: &LightFrame,
-    map: &mut ShadowMap<'_>,
-    mode: ShadowMode,
-    sink: &mut S,
-) -> Stats {
-    match mode {
-        ShadowMode::Off => crate::tg::render_tg(grid, frame, sink),
-        ShadowMode::OnePass => render_tg_with(grid, frame, &mut OnePass { light, map }, sink),
-        ShadowMode::TwoPass => {
-            render_tg_with(grid, frame, &mut TwoPass::<false> { light, map }, sink)
         }
     }
 }

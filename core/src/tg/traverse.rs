@@ -149,7 +149,13 @@ pub fn fill_tg<'g, H: ShadowHooks>(grid: &'g TriGrid<'g>, frame: &TgFrame, hooks
     }
 }
 
-fn fill_nodes<D: NodeData, H: ShadowHooks>(data: D, frame: &TgFrame, hooks: &mut H) -> u32 {
+/// [`fill_tg`] over any [`NodeData`]: a streamed grid casts what is resident (where children are
+/// absent, the cell casts as a leaf). Returns nodes visited.
+pub(crate) fn fill_nodes<D: NodeData, H: ShadowHooks>(
+    data: D,
+    frame: &TgFrame,
+    hooks: &mut H,
+) -> u32 {
     let mut sink = crate::splat::NullSink::default();
     match frame.rho {
         2 => Walker::<_, _, _, 2>::new(data, frame, hooks, &mut sink).map_or(0, |w| w.fill()),
