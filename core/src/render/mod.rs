@@ -47,6 +47,8 @@ pub use formats::render_scene_marked;
 pub use model::Model;
 #[cfg(all(feature = "stream", feature = "qsplat"))]
 pub use stream::render_qs_stream;
+#[cfg(all(feature = "stream", feature = "scene"))]
+pub use stream::render_scene_stream;
 #[cfg(feature = "stream")]
 pub use stream::{render_stream, StreamPass};
 

@@ -106,3 +106,62 @@ pub fn render_qs_stream<P: DepthTarget, L: Layer, const M: usize>(
     let clear = pass != StreamPass::NextPass;
     Ok(target.draw(&mut walk, &shading, clear, options, layer, &mut mark))
 }
+
+/// A frame of a scene pack streamed through its objects' block caches
+/// ([`SceneStream::render`](crate::stream::SceneStream::render), or with `pass` the next pass of a
+/// refined frame), through the same camera, shading table, clear and raster as
+/// [`render`](super::render()) draws the pack opened whole: with its shadows in the target's map
+/// (frames from what is resident; a refined frame's passes have none).
+///
+/// # Errors
+/// [`RenderError::Scene`] when an object's frame cannot be set up, the table has fewer than the
+/// scene's slots, or a pass is asked for with shadows.
+#[cfg(feature = "scene")]
+pub fn render_scene_stream<P: DepthTarget, L: Layer, const M: usize>(
+    stream: &mut crate::stream::SceneStream<'_, '_>,
+    camera: &Camera,
+    options: &RenderOptions,
+    target: &mut Target<'_, P, M>,
+    pass: StreamPass,
+    layer: &mut L,
+    mut mark: impl FnMut(Phase),
+) -> Result<Drawn, RenderError> {
+    mark(Phase::Setup);
+    let camera = camera.for_viewport(target.pixels.viewport());
+    let shading = stream
+        .scene()
+        .shading::<M>(&camera, options.light_dir)
+        .map_err(RenderError::Scene)?;
+    if pass == StreamPass::FirstPass {
+        stream.begin_refined();
+    }
+    #[cfg(feature = "shadows")]
+    let (map, light): (&mut [u16], _) = match target.shadow.as_mut() {
+        Some((map, light)) => (&mut **map, Some(&mut **light)),
+        None => (&mut [], None),
+    };
+    #[cfg(not(feature = "shadows"))]
+    let map: &mut [u16] = &mut [];
+    let mut walk = crate::stream::SceneStreamWalk {
+        stream,
+        camera: &camera,
+        options,
+        map,
+        #[cfg(feature = "shadows")]
+        light,
+        refined: pass != StreamPass::Frame,
+        result: None,
+    };
+    let clear = pass != StreamPass::NextPass;
+    let (pixels, table) = (&mut target.pixels, &mut *target.table);
+    let drawn = super::draw(
+        pixels, table, &mut walk, &shading, clear, options, layer, &mut mark,
+    );
+    let stats = walk.finish().map_err(RenderError::Scene)?;
+    Ok(Drawn {
+        stats: stats.total,
+        shadows: stats.shadows,
+        scene: Some(stats),
+        ..drawn
+    })
+}

@@ -42,6 +42,8 @@ mod open;
 mod priority;
 #[cfg(feature = "qsplat")]
 mod qs;
+#[cfg(feature = "scene")]
+mod scene;
 mod serve;
 mod tg;
 // Test helpers (sources that mistreat another): public for the project's own tests and the
@@ -57,6 +59,11 @@ pub use open::{read_tg_header, OPEN_ATTEMPTS};
 pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
 #[cfg(feature = "qsplat")]
 pub use qs::{QsStream, QsStreamWalk, QS_MAX_TREES};
+#[cfg(feature = "scene")]
+pub use scene::{
+    read_pack_meta, ObjectStream, SceneStream, SceneStreamError, SceneStreamWalk, Window,
+    WindowError,
+};
 pub use serve::{ServeReport, StreamCounters};
 pub use tg::{StreamWalk, TgStream};
 

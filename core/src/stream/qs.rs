@@ -408,6 +408,10 @@ impl<'a> QsStream<'a> {
         (2 * u32::from(self.deepest) + 4).max(MIN_SLOTS as u32)
     }
 
+    /// The most [`QsStream::cache_need`] can become for any file (a tree of the deepest the
+    /// reader takes): a cache of this many blocks streams any view of any file that opens.
+    pub const MAX_CACHE_NEED: u32 = 2 * LEVELS as u32 + 4;
+
     #[doc(hidden)]
     pub fn debug_resume(&self) -> (Option<u8>, [u8; LEVELS]) {
         (self.refine.stop, self.refine.path)

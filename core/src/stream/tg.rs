@@ -19,11 +19,22 @@ use crate::frame::Walk;
 use crate::splat::{ColorSink, SplatSink, Stats};
 use crate::tg::brick::band_end;
 use crate::tg::read::{check_block, Header, LevelDir};
-use crate::tg::traverse::{render_nodes, NoShadows, ShadowHooks};
+use crate::tg::traverse::{fill_nodes, render_nodes, NoShadows, ShadowHooks};
 use crate::tg::{TgError, TgFrame, DIRECTORY_ENTRY, DIRECTORY_OFFSET, MAX_LEVELS};
 
 /// Descents a pass walks past the place it stops, looking for the blocks the next passes need.
 const LOOKAHEAD_DESCENTS: u32 = 1 << 13;
+
+/// Which walk of a frame [`TgStream`] takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    /// A frame's (or a refined frame's pass's) only walk.
+    Draw,
+    /// The light pass of two-pass shadows: casts into the map, draws nothing.
+    Cast,
+    /// The draw after a cast in the same frame.
+    DrawAfterCast,
+}
 
 /// A `.tg` file being streamed: header, level directory, block cache and request queue.
 #[derive(Debug)]
@@ -313,7 +324,46 @@ impl<'a> TgStream<'a> {
         sink: &mut S,
     ) -> Stats {
         let drawing = Cell::new(true);
-        self.walk(frame, hooks, sink, Phase::Progressive, &drawing)
+        self.walk(frame, hooks, sink, Phase::Progressive, &drawing, Pass::Draw)
+    }
+
+    /// [`TgStream::render_with`] after [`TgStream::fill_with`] in the same frame: what the cast
+    /// queued stays queued, and [`TgStream::missing`] counts what either walk missed.
+    pub fn render_after_fill<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+    ) -> Stats {
+        let drawing = Cell::new(true);
+        self.walk(
+            frame,
+            hooks,
+            sink,
+            Phase::Progressive,
+            &drawing,
+            Pass::DrawAfterCast,
+        )
+    }
+
+    /// Casts what is resident into a shadow map through `hooks` (the light pass of two-pass
+    /// shadows, a scene's two-pass light pass for a stream), queueing what is missing as a
+    /// frame does: where children are absent the cell casts as a leaf. Returns nodes visited.
+    ///
+    /// A frame that casts and then draws counts as converged only if both found nothing missing:
+    /// call [`TgStream::missing`] after each.
+    pub fn fill_with<H: ShadowHooks>(&mut self, frame: &TgFrame, hooks: &mut H) -> u32 {
+        let drawing = Cell::new(true);
+        let mut sink = crate::splat::NullSink::default();
+        self.walk(
+            frame,
+            hooks,
+            &mut sink,
+            Phase::Progressive,
+            &drawing,
+            Pass::Cast,
+        )
+        .nodes_visited
     }
 
     /// Starts a refined frame drawn in passes ([`TgStream::render_pass`]): the next pass begins at
@@ -341,7 +391,14 @@ impl<'a> TgStream<'a> {
             drawing: &drawing,
         };
         self.refine.passes += 1;
-        self.walk(frame, &mut NoShadows, &mut pass, Phase::Draw, &drawing)
+        self.walk(
+            frame,
+            &mut NoShadows,
+            &mut pass,
+            Phase::Draw,
+            &drawing,
+            Pass::Draw,
+        )
     }
 
     /// Whether the last [`TgStream::render_pass`] finished its refined frame.
@@ -378,11 +435,18 @@ impl<'a> TgStream<'a> {
         sink: &mut S,
         phase: Phase,
         drawing: &Cell<bool>,
+        what: Pass,
     ) -> Stats {
-        self.frame = self.frame.wrapping_add(1).max(1);
-        self.counters.frames += 1;
+        // What a cast earlier in this frame missed besides what it queued.
+        let mut carried = 0;
+        if what == Pass::DrawAfterCast {
+            carried = self.missing.saturating_sub(self.queue.len() as u32);
+        } else {
+            self.frame = self.frame.wrapping_add(1).max(1);
+            self.counters.frames += 1;
+            clear_queue(&mut self.cache, &mut self.queue);
+        }
         self.passing = phase != Phase::Progressive;
-        clear_queue(&mut self.cache, &mut self.queue);
         let mut dropped = 0u32;
         let mut inconsistent = 0u32;
         let mut bad_bricks = 0u32;
@@ -436,12 +500,17 @@ impl<'a> TgStream<'a> {
         };
         // The root's own attribute and mask are what the first splat needs.
         let root = nodes.ranges(0, 0, 1, None);
-        let stats = if nodes.resident(&root) {
-            render_nodes(nodes, frame, hooks, sink)
-        } else {
+        let stats = if !nodes.resident(&root) {
             nodes.request(&root, ROOT_PRIORITY);
             nodes.pass.phase = Phase::Lookahead;
             Stats::default()
+        } else if what == Pass::Cast {
+            Stats {
+                nodes_visited: fill_nodes(nodes, frame, hooks),
+                ..Stats::default()
+            }
+        } else {
+            render_nodes(nodes, frame, hooks, sink)
         };
         if phase != Phase::Progressive {
             // A pass that met no absent block drew the rest of the frame; one that did resumes
@@ -464,7 +533,7 @@ impl<'a> TgStream<'a> {
             self.refine.refused = self.refine.refused.saturating_add(inconsistent);
             self.refine.refused
         };
-        self.missing = self.queue.len() as u32 + dropped + refused;
+        self.missing = self.queue.len() as u32 + dropped + refused + carried;
         stats
     }
 

@@ -1,0 +1,670 @@
+//! Streaming a scene pack: the pack's metadata read once, each object's file streamed through its
+//! own block cache from where it lies in the pack ([`Window`]), and every frame drawn by the
+//! scene's own frame function (`scene::draw::render_objects`, through [`Objects`]), so that a
+//! converged frame is the frame of the pack opened whole.
+//!
+//! - **Frames from what is resident** ([`SceneStream::render`]) draw each object as its stream
+//!   allows (coarser where blocks are absent, Streaming QSplat §3.2), with the pack's shadows:
+//!   one-pass shadows through the streamed walk's hooks; two-pass casts each object's resident
+//!   blocks first, then draws ([`TgStream::fill_with`]). A frame converges when no object missed
+//!   anything, in its cast or in its draw.
+//! - **A refined frame in passes** ([`SceneStream::render_pass`], unshadowed): the objects in the
+//!   scene's order, each drawn in its own passes over the shared depth buffer, one object finished
+//!   before the next begins, so that the passes add up to the resident frame.
+//! - [`SceneStream::serve`] reads for the objects that missed something first, then lets the
+//!   others prefetch, within one I/O budget; during a refined frame only the object being drawn
+//!   reads.
+
+use heapless::Vec;
+
+#[cfg(feature = "qsplat")]
+use super::QsStream;
+use super::{ChunkSource, ServeReport, StreamCounters, StreamError, TgStream};
+use crate::camera::Camera;
+use crate::frame::RenderOptions;
+use crate::scene::draw::{render_objects, Objects};
+use crate::scene::{Kind, MAX_META_BYTES, MAX_OBJECTS};
+use crate::scene::{ObjectFile, ObjectRecord, Pack, PackError, Scene, SceneError, SceneStats};
+use crate::shade::ShadowMode;
+#[cfg(feature = "shadows")]
+use crate::shadow::LightFrame;
+use crate::splat::{SplatSink, Stats};
+use crate::tg::read::Header;
+use crate::tg::traverse::ShadowHooks;
+use crate::tg::TgFrame;
+
+/// Part of a file on a medium seen as a file of its own: an object's file inside a pack.
+#[derive(Debug)]
+pub struct Window<'s, C: ?Sized> {
+    src: &'s mut C,
+    base: u64,
+    len: u64,
+}
+
+impl<'s, C: ChunkSource + ?Sized> Window<'s, C> {
+    /// Bytes `base .. base + len` of `src`.
+    pub fn new(src: &'s mut C, base: u64, len: u64) -> Self {
+        Self { src, base, len }
+    }
+
+    /// Object `rec`'s file in the pack on `src`.
+    pub fn of(src: &'s mut C, rec: &ObjectRecord<'_>) -> Self {
+        Self::new(src, u64::from(rec.data_offset), u64::from(rec.data_len))
+    }
+}
+
+/// Why a [`Window`] read failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WindowError<E> {
+    /// The medium failed.
+    Device(E),
+    /// The read runs past the end of the window.
+    OutOfRange {
+        /// Start of the read, in the window.
+        offset: u64,
+        /// Its length.
+        len: usize,
+    },
+}
+
+impl<C: ChunkSource + ?Sized> ChunkSource for Window<'_, C> {
+    type Error = WindowError<C::Error>;
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Self::Error> {
+        let len = buf.len();
+        let end = offset.checked_add(len as u64);
+        if end.is_none_or(|e| e > self.len) {
+            return Err(WindowError::OutOfRange { offset, len });
+        }
+        self.src
+            .read_at(self.base + offset, buf)
+            .map_err(WindowError::Device)
+    }
+    fn mapped(&self) -> Option<&[u8]> {
+        let start = usize::try_from(self.base).ok()?;
+        let end = start.checked_add(usize::try_from(self.len).ok()?)?;
+        self.src.mapped()?.get(start..end)
+    }
+    fn byte_len(&self) -> Option<u64> {
+        Some(self.len)
+    }
+}
+
+/// Why a scene pack cannot be streamed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SceneStreamError<E> {
+    /// The medium failed on the pack's metadata, every attempt.
+    Device(E),
+    /// The metadata is not a valid pack's.
+    Pack(PackError),
+    /// The metadata is longer than the buffer given for it.
+    MetaBuffer {
+        /// Bytes of metadata.
+        need: u32,
+        /// Bytes of buffer.
+        given: u32,
+    },
+    /// An object's file cannot be streamed.
+    Object {
+        /// The object.
+        object: u8,
+        /// Why.
+        error: StreamError<WindowError<E>>,
+    },
+    /// An object's file does not fit its record, or the scene cannot be drawn.
+    Scene(SceneError),
+}
+
+impl<E: core::fmt::Debug> core::fmt::Display for SceneStreamError<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SceneStreamError::Device(e) => write!(f, "read failed: {e:?}"),
+            SceneStreamError::Pack(e) => write!(f, "{e}"),
+            SceneStreamError::MetaBuffer { need, given } => write!(
+                f,
+                "the pack's metadata is {need} bytes, more than the {given} bytes given for it"
+            ),
+            SceneStreamError::Object { object, error } => write!(f, "object {object}: {error}"),
+            SceneStreamError::Scene(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl<E: core::fmt::Debug> core::error::Error for SceneStreamError<E> {}
+
+/// Reads and validates the metadata of the pack on `src` into `meta` (at most
+/// [`MAX_META_BYTES`]), retrying each read: the header, then the tables it announces.
+///
+/// # Errors
+/// [`SceneStreamError::Device`] when a read fails every attempt, [`SceneStreamError::Pack`] when
+/// the metadata is not valid, [`SceneStreamError::MetaBuffer`] when `meta` is too small.
+pub fn read_pack_meta<'m, C: ChunkSource + ?Sized>(
+    src: &mut C,
+    meta: &'m mut [u8],
+) -> Result<Pack<'m>, SceneStreamError<C::Error>> {
+    let head = crate::scene::HEADER_BYTES;
+    let given = meta.len() as u32;
+    let buf = meta.get_mut(..head).ok_or(SceneStreamError::MetaBuffer {
+        need: head as u32,
+        given,
+    })?;
+    // A medium that knows its length says a short pack is short (not that a read failed).
+    let known = src.byte_len();
+    let short = |need: usize| {
+        known.filter(|&found| found < need as u64).map(|found| {
+            SceneStreamError::Pack(PackError::TooShort {
+                need: need as u64,
+                found,
+            })
+        })
+    };
+    if let Some(e) = short(head) {
+        return Err(e);
+    }
+    read_retrying(src, 0, buf)?;
+    let need = Pack::meta_len_of(buf);
+    // A header that claims more metadata than any pack has is refused by the pack's own check;
+    // only what a valid pack may have is read.
+    let len = (need as usize).clamp(head, MAX_META_BYTES);
+    if len > meta.len() {
+        return Err(SceneStreamError::MetaBuffer { need, given });
+    }
+    if let Some(e) = short(len) {
+        return Err(e);
+    }
+    read_retrying(src, head as u64, &mut meta[head..len])?;
+    // The pack's length: the medium's, else the header's own (a read past the real end then
+    // fails, and its blocks stay absent).
+    let file_len = src
+        .byte_len()
+        .unwrap_or_else(|| u64::from(u32::from_le_bytes([meta[8], meta[9], meta[10], meta[11]])));
+    Pack::open_meta(&meta[..len], file_len).map_err(SceneStreamError::Pack)
+}
+
+fn read_retrying<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    offset: u64,
+    buf: &mut [u8],
+) -> Result<(), SceneStreamError<C::Error>> {
+    let mut last = None;
+    for _ in 0..super::OPEN_ATTEMPTS {
+        match src.read_at(offset, buf) {
+            Ok(()) => return Ok(()),
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(SceneStreamError::Device(
+        last.expect("at least one attempt"),
+    ))
+}
+
+/// One object's file being streamed.
+// The two streams differ by a few hundred bytes of ~3 KB, and the core has no heap to box one.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum ObjectStream<'a> {
+    /// A tri-grid.
+    Grid(TgStream<'a>),
+    /// A QSplat file.
+    #[cfg(feature = "qsplat")]
+    QSplat(QsStream<'a>),
+}
+
+/// What [`ObjectStream`] forwards to the stream it holds.
+macro_rules! each {
+    ($s:expr, $x:ident => $e:expr) => {
+        match $s {
+            ObjectStream::Grid($x) => $e,
+            #[cfg(feature = "qsplat")]
+            ObjectStream::QSplat($x) => $e,
+        }
+    };
+}
+
+impl ObjectStream<'_> {
+    /// Whether its last frame (or pass) missed nothing.
+    pub fn converged(&self) -> bool {
+        each!(self, s => s.converged())
+    }
+    /// What its last frame missed.
+    pub fn missing(&self) -> u32 {
+        each!(self, s => s.missing())
+    }
+    /// Descents its last frame refused as malformed.
+    pub fn inconsistent(&self) -> u32 {
+        each!(self, s => s.inconsistent())
+    }
+    /// Cumulative counts.
+    pub fn counters(&self) -> &StreamCounters {
+        each!(self, s => s.counters())
+    }
+    /// Whether its last pass finished its part of the refined frame.
+    pub fn refined_done(&self) -> bool {
+        each!(self, s => s.refined_done())
+    }
+    /// Passes of the refined frame so far.
+    pub fn passes(&self) -> u32 {
+        each!(self, s => s.passes())
+    }
+    /// Blocks its last frame used and queued.
+    pub fn working_set(&self) -> u32 {
+        each!(self, s => s.working_set())
+    }
+    /// Blocks its cache holds, and how many are resident.
+    pub fn cache_blocks(&self) -> (usize, usize) {
+        each!(self, s => (s.cache().capacity(), s.cache().resident()))
+    }
+    /// The fewest blocks its cache must hold.
+    pub fn cache_need(&self) -> u32 {
+        each!(self, s => s.cache_need())
+    }
+    /// Its block size, bytes.
+    pub fn block_size(&self) -> usize {
+        match self {
+            ObjectStream::Grid(s) => s.header().block_size(),
+            #[cfg(feature = "qsplat")]
+            ObjectStream::QSplat(s) => s.block_size(),
+        }
+    }
+    fn begin_refined(&mut self) {
+        each!(self, s => s.begin_refined());
+    }
+    fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport {
+        each!(self, s => s.serve(src, budget))
+    }
+}
+
+/// A scene pack being streamed: its metadata, and a stream per object.
+#[derive(Debug)]
+pub struct SceneStream<'m, 'a> {
+    scene: Scene<'m>,
+    objects: Vec<ObjectStream<'a>, MAX_OBJECTS>,
+    /// The object a refined frame is drawing (those before it are finished).
+    first: usize,
+}
+
+impl<'m, 'a> SceneStream<'m, 'a> {
+    /// The scene of `pack` (from [`read_pack_meta`]), its objects' files streamed by `objects`,
+    /// one per object in the pack's order, each opened on its [`Window`].
+    ///
+    /// # Errors
+    /// [`SceneError`] when a stream is not of its record's kind (`Rho` and `MaterialBits` as
+    /// for a pack opened whole), or the count differs from the pack's.
+    pub fn new(
+        pack: Pack<'m>,
+        streams: impl IntoIterator<Item = ObjectStream<'a>>,
+    ) -> Result<Self, SceneError> {
+        let mut objects = Vec::<_, MAX_OBJECTS>::new();
+        let mut given = 0u32;
+        for s in streams {
+            given += 1;
+            let _ = objects.push(s);
+        }
+        if given != pack.object_count() as u32 {
+            return Err(SceneError::Streams {
+                objects: pack.object_count() as u8,
+                streams: given.min(255) as u8,
+            });
+        }
+        for (i, o) in objects.iter().enumerate() {
+            let kind = match o {
+                ObjectStream::Grid(_) => Kind::TriGrid,
+                #[cfg(feature = "qsplat")]
+                ObjectStream::QSplat(_) => Kind::QSplat,
+            };
+            if pack.object(i).map(|r| r.kind) != Some(kind) {
+                return Err(SceneError::StreamKind { object: i as u8 });
+            }
+        }
+        let scene = Scene::streamed(pack, |i| match &objects[i] {
+            ObjectStream::Grid(s) => ObjectFile::Grid(s.header()),
+            #[cfg(feature = "qsplat")]
+            ObjectStream::QSplat(s) => ObjectFile::QSplat(s.bounds()),
+        })?;
+        Ok(Self {
+            scene,
+            objects,
+            first: 0,
+        })
+    }
+
+    /// The scene: camera, options, shading, light, as for the pack opened whole.
+    pub fn scene(&self) -> &Scene<'m> {
+        &self.scene
+    }
+
+    /// The objects' streams.
+    pub fn objects(&self) -> &[ObjectStream<'a>] {
+        &self.objects
+    }
+
+    /// Draws one frame from what is resident into `sink` (as `scene::render_scene` draws the pack
+    /// opened whole), queueing what each object misses; `shadow_depths` and `light` as there.
+    ///
+    /// # Errors
+    /// As `scene::render_scene`.
+    pub fn render<S: SplatSink>(
+        &mut self,
+        camera: &Camera,
+        opts: &RenderOptions,
+        shadow_depths: &mut [u16],
+        #[cfg(feature = "shadows")] light: Option<&mut LightFrame>,
+        sink: &mut S,
+    ) -> Result<SceneStats, SceneError> {
+        let mut objects = Streams {
+            streams: &mut self.objects,
+            cast: [false; MAX_OBJECTS],
+            pass: None,
+        };
+        render_objects(
+            &self.scene,
+            &mut objects,
+            camera,
+            opts,
+            shadow_depths,
+            #[cfg(feature = "shadows")]
+            light,
+            sink,
+        )
+    }
+
+    /// Starts a refined frame drawn in passes ([`SceneStream::render_pass`]).
+    pub fn begin_refined(&mut self) {
+        self.first = 0;
+        self.objects
+            .iter_mut()
+            .for_each(ObjectStream::begin_refined);
+    }
+
+    /// Draws the next pass of a refined frame into `sink` (colour and depth kept between passes):
+    /// the objects in the scene's order, each in its own passes ([`TgStream::render_pass`]), the
+    /// next begun only when one is finished, so that once [`SceneStream::refined_done`] the
+    /// framebuffer holds the frame of the pack opened whole. Without shadows.
+    ///
+    /// # Errors
+    /// As [`SceneStream::render`]; [`SceneError::ShadowedPasses`] when `opts` ask for shadows.
+    pub fn render_pass<S: SplatSink>(
+        &mut self,
+        camera: &Camera,
+        opts: &RenderOptions,
+        sink: &mut S,
+    ) -> Result<SceneStats, SceneError> {
+        if opts.shadows != ShadowMode::Off {
+            return Err(SceneError::ShadowedPasses);
+        }
+        let mut objects = Streams {
+            streams: &mut self.objects,
+            cast: [false; MAX_OBJECTS],
+            pass: Some(Cursor {
+                first: self.first,
+                stopped: false,
+            }),
+        };
+        let stats = render_objects(
+            &self.scene,
+            &mut objects,
+            camera,
+            opts,
+            &mut [],
+            #[cfg(feature = "shadows")]
+            None,
+            sink,
+        )?;
+        self.first = (self.first..self.objects.len())
+            .find(|&i| !self.objects[i].refined_done())
+            .unwrap_or(self.objects.len());
+        Ok(stats)
+    }
+
+    /// Whether the last [`SceneStream::render_pass`] finished the refined frame.
+    pub fn refined_done(&self) -> bool {
+        self.first >= self.objects.len()
+    }
+
+    /// Passes of the refined frame so far, over the objects.
+    pub fn passes(&self) -> u32 {
+        self.objects.iter().map(ObjectStream::passes).sum()
+    }
+
+    /// Whether the last frame missed nothing in any object.
+    pub fn converged(&self) -> bool {
+        self.objects.iter().all(ObjectStream::converged)
+    }
+
+    /// What the last frame missed, over the objects.
+    pub fn missing(&self) -> u32 {
+        self.objects.iter().map(ObjectStream::missing).sum()
+    }
+
+    /// Descents the last frame refused as malformed, over the objects.
+    pub fn inconsistent(&self) -> u32 {
+        self.objects.iter().map(ObjectStream::inconsistent).sum()
+    }
+
+    /// Blocks the last frame used and queued, over the objects.
+    pub fn working_set(&self) -> u32 {
+        self.objects.iter().map(ObjectStream::working_set).sum()
+    }
+
+    /// Whether some object's last frame needed more blocks than its cache holds.
+    pub fn over_capacity(&self) -> bool {
+        self.objects
+            .iter()
+            .any(|o| o.working_set() as usize > o.cache_blocks().0)
+    }
+
+    /// The objects' counts added (frames: the scene's).
+    pub fn counters(&self) -> StreamCounters {
+        let mut t = StreamCounters::default();
+        for o in &self.objects {
+            let c = o.counters();
+            t.frames = t.frames.max(c.frames);
+            t.reads += c.reads;
+            t.bytes_read += c.bytes_read;
+            t.read_errors += c.read_errors;
+            t.crc_errors += c.crc_errors;
+            t.structure_errors += c.structure_errors;
+            t.inconsistent += c.inconsistent;
+            t.evictions += c.evictions;
+            t.prefetched += c.prefetched;
+            t.dropped += c.dropped;
+        }
+        t
+    }
+
+    /// Reads what the last frame asked for, within `budget_bytes` over all objects: the objects
+    /// that missed something first, in the scene's order, then (budget left) the others'
+    /// prefetch; during a refined frame, only the object being drawn. `src` is the pack.
+    pub fn serve<C: ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        budget_bytes: u32,
+        refining: bool,
+    ) -> ServeReport {
+        let mut total = ServeReport::default();
+        let pack = *self.scene.pack();
+        let n = self.objects.len();
+        let missed: [bool; MAX_OBJECTS] =
+            core::array::from_fn(|i| self.objects.get(i).is_some_and(|o| o.missing() > 0));
+        let order = (0..n)
+            .filter(|&i| missed[i])
+            .chain((0..n).filter(|&i| !missed[i]));
+        for i in order {
+            if refining && i != self.first {
+                continue;
+            }
+            let left = budget_bytes.saturating_sub(total.bytes);
+            if left == 0 && total.reads > 0 {
+                break;
+            }
+            let Some(rec) = pack.object(i) else { break };
+            let r = self.objects[i].serve(&mut Window::of(src, &rec), left.max(1));
+            total.reads += r.reads;
+            total.bytes += r.bytes;
+            total.failed += r.failed;
+            total.prefetched += r.prefetched;
+            total.no_room += r.no_room;
+        }
+        total
+    }
+}
+
+/// Where a refined frame's pass is.
+#[derive(Clone, Copy, Debug)]
+struct Cursor {
+    /// Objects before it are finished.
+    first: usize,
+    /// An object's pass stopped at an absent block: nothing after it is drawn in this pass.
+    stopped: bool,
+}
+
+/// The objects' streams as a scene frame reads them.
+struct Streams<'o, 'a> {
+    streams: &'o mut [ObjectStream<'a>],
+    /// Objects whose tri-grid cast into the map this frame (two-pass): their draw keeps what the
+    /// cast queued.
+    cast: [bool; MAX_OBJECTS],
+    /// Drawing a pass of a refined frame.
+    pass: Option<Cursor>,
+}
+
+impl Streams<'_, '_> {
+    /// Whether a pass draws nothing of object `i`: finished, or after the one that stopped.
+    fn skips(&self, i: usize) -> bool {
+        self.pass.is_some_and(|p| i < p.first || p.stopped)
+    }
+
+    /// Notes where a pass stopped.
+    fn passed(&mut self, done: bool) {
+        if let Some(p) = &mut self.pass {
+            p.stopped |= !done;
+        }
+    }
+}
+
+impl Objects for Streams<'_, '_> {
+    fn grid_header(&self, i: usize) -> Option<Header> {
+        match self.streams.get(i)? {
+            ObjectStream::Grid(s) if !self.skips(i) => Some(*s.header()),
+            _ => None,
+        }
+    }
+
+    fn draw_grid<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        i: usize,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+    ) -> Stats {
+        let (pass, cast) = (self.pass.is_some(), self.cast[i]);
+        let Some(ObjectStream::Grid(s)) = self.streams.get_mut(i) else {
+            return Stats::default();
+        };
+        if pass {
+            let stats = s.render_pass(frame, sink);
+            let done = s.refined_done();
+            self.passed(done);
+            stats
+        } else if cast {
+            s.render_after_fill(frame, hooks, sink)
+        } else {
+            s.render_with(frame, hooks, sink)
+        }
+    }
+
+    fn cast_grid<H: ShadowHooks>(&mut self, i: usize, frame: &TgFrame, hooks: &mut H) -> u32 {
+        let Some(ObjectStream::Grid(s)) = self.streams.get_mut(i) else {
+            return 0;
+        };
+        self.cast[i] = true;
+        s.fill_with(frame, hooks)
+    }
+
+    #[cfg(feature = "qsplat")]
+    fn draw_qs<S: SplatSink>(
+        &mut self,
+        i: usize,
+        rec: &ObjectRecord<'_>,
+        camera: &Camera,
+        opts: &RenderOptions,
+        range: crate::tg::frame::DepthRange,
+        sink: &mut S,
+    ) -> Option<Result<Stats, crate::frame::FrameError>> {
+        let skips = self.skips(i);
+        let pass = self.pass.is_some();
+        let ObjectStream::QSplat(s) = self.streams.get_mut(i)? else {
+            return None;
+        };
+        if skips {
+            return Some(Ok(Stats::default()));
+        }
+        let trees = s.trees().iter().copied();
+        let mut frame = match crate::qs::QsFrame::of_trees(trees, &rec.placement, camera, opts) {
+            Ok(f) => f,
+            Err(e) => return Some(Err(e)),
+        };
+        frame.share_depth_range(range);
+        let mut sink = crate::qs::NoColor(sink);
+        Some(Ok(if pass {
+            let stats = s.render_pass(&frame, &mut sink);
+            let done = s.refined_done();
+            self.passed(done);
+            stats
+        } else {
+            s.render(&frame, &mut sink)
+        }))
+    }
+}
+
+/// A streamed scene's frame ready to walk ([`crate::frame::Walk`]): a frame from what is resident
+/// ([`SceneStream::render`]) or, `refined`, the next pass of a refined frame
+/// ([`SceneStream::render_pass`]). [`SceneStreamWalk::finish`] says what each object did.
+pub struct SceneStreamWalk<'w, 'm, 'a> {
+    /// The stream.
+    pub stream: &'w mut SceneStream<'m, 'a>,
+    /// The camera, fitted to the target.
+    pub camera: &'w Camera,
+    /// The options.
+    pub options: &'w RenderOptions,
+    /// The shadow map's depths (empty without shadows).
+    pub map: &'w mut [u16],
+    /// Where the light's tables are set (`None`: on the stack).
+    #[cfg(feature = "shadows")]
+    pub light: Option<&'w mut LightFrame>,
+    /// The next pass of a refined frame instead of a frame from what is resident.
+    pub refined: bool,
+    /// What the walk did.
+    pub result: Option<Result<SceneStats, SceneError>>,
+}
+
+impl SceneStreamWalk<'_, '_, '_> {
+    /// What the walk did, per object (empty counts if it never ran).
+    ///
+    /// # Errors
+    /// As [`SceneStream::render`] and [`SceneStream::render_pass`].
+    pub fn finish(self) -> Result<SceneStats, SceneError> {
+        self.result.unwrap_or(Ok(SceneStats::default()))
+    }
+}
+
+impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_> {
+    fn walk<S: crate::splat::ColorSink>(&mut self, sink: &mut S) -> Stats {
+        let r = if self.refined {
+            self.stream.render_pass(self.camera, self.options, sink)
+        } else {
+            self.stream.render(
+                self.camera,
+                self.options,
+                self.map,
+                #[cfg(feature = "shadows")]
+                self.light.as_deref_mut(),
+                sink,
+            )
+        };
+        let total = r.as_ref().map(|s| s.total).unwrap_or_default();
+        self.result = Some(r);
+        total
+    }
+}
