@@ -11,7 +11,7 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Context, Result};
 use pocketsplat_core::camera::Viewport;
 use pocketsplat_core::raster::Kernel;
-use pocketsplat_core::scene::ShadowMode;
+use pocketsplat_core::scene::{Pack, ShadowMode};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use serde_json::json;
 
@@ -167,6 +167,23 @@ pub struct PackArgs {
     pub size: Viewport,
 }
 
+impl PackArgs {
+    /// The settings these arguments give for `pack` (whose views they may name).
+    ///
+    /// # Errors
+    /// A view that is none of the pack's, a standard view, `AZ,EL,DIST` or `path@SECONDS`.
+    pub fn settings(&self, pack: &Pack<'_>) -> Result<PackSettings> {
+        let mut settings = PackSettings::new(parse_pack_view(pack, &self.view)?);
+        settings.cutoff_px = self.cutoff_px;
+        settings.kernel = self.kernel;
+        settings.fov_deg = self.fov;
+        settings.shadows = self.shadows;
+        settings.light_az_el = self.light_az_el;
+        settings.color_by_level = self.color_by_level;
+        Ok(settings)
+    }
+}
+
 /// Renders the scene pack `input` and writes the frame to `out`.
 ///
 /// # Errors
@@ -175,13 +192,7 @@ pub fn render_pack_file(input: &Path, out: &Path, args: &PackArgs) -> Result<Sna
     let bytes = crate::fsutil::read_file(input)?;
     let scene = input::open_pack(input, &bytes)?;
     let pack = scene.pack();
-    let mut settings = PackSettings::new(parse_pack_view(pack, &args.view)?);
-    settings.cutoff_px = args.cutoff_px;
-    settings.kernel = args.kernel;
-    settings.fov_deg = args.fov;
-    settings.shadows = args.shadows;
-    settings.light_az_el = args.light_az_el;
-    settings.color_by_level = args.color_by_level;
+    let settings = args.settings(pack)?;
     let mut fb = FrameBuffers::sized(args.size);
     let frame = render_pack(&scene, &settings, &mut fb)?;
     write_frame(out, &mut fb, args.color_by_level)?;

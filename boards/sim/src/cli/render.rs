@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use pocketsplat_sim::args;
@@ -54,9 +54,11 @@ impl RenderArgs {
 /// Streaming: `render --stream` and its budgets.
 #[derive(Debug, clap::Args)]
 pub struct StreamArgs {
-    /// Read the `.tg` or `.qs` file (a path, or an `http://` URL served with byte ranges) in blocks
-    /// through a block cache, as a handheld reads an SD card, drawing frames until one misses
-    /// nothing; write that frame. Without shadows.
+    /// Read the `.tg`, `.qs` or `.pack` file (a path, or an `http://` URL served with byte
+    /// ranges) in blocks through a block cache, as a handheld reads an SD card, drawing frames
+    /// until one misses nothing; write that frame. A pack's objects share the cache, each in
+    /// proportion to its file; its shadows are drawn while the cache holds the frame's blocks
+    /// (a `.tg` or `.qs` file streams without shadows).
     #[arg(long)]
     stream: bool,
     /// With `--stream`: bytes read per frame at most, 512 to 1G (K, M, G: 1024, 1024², 1024³).
@@ -81,14 +83,13 @@ pub struct StreamArgs {
 /// Bad arguments or input, naming the file; no output is written then.
 pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
     let (input, out) = (&args.input, &args.out);
-    if pocketsplat_sim::input::is_pack(input) {
-        if args.stream.stream {
-            bail!(
-                "{}: --stream reads one .tg or .qs file (a path or an http:// URL); a scene pack \
-                 cannot be streamed yet: render it without --stream",
-                input.display()
-            );
-        }
+    let stream_opts = StreamOptions {
+        io_budget: args.stream.io_budget,
+        cache_bytes: args.stream.cache,
+        max_frames: args.stream.max_frames,
+        ..StreamOptions::default()
+    };
+    if is_pack_input(input, args.stream.stream) {
         // A pack brings its own light, shadows and field of view: flags left out keep them.
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
         let f = &args.frame;
@@ -102,6 +103,16 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
             color_by_level: args.color_by_level,
             size: f.size,
         };
+        if args.stream.stream {
+            let input = input.to_string_lossy();
+            return pocketsplat_sim::stream::cmd::run_pack(
+                &input,
+                out,
+                &pack,
+                &stream_opts,
+                args.stats_json,
+            );
+        }
         return report(
             snapshot::render_pack_file(input, out, &pack)?,
             args.stats_json,
@@ -110,19 +121,33 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
     let mut settings = args.frame.settings(args.cutoff, args.color_by_level)?;
     settings.light_pos = args.light_pos;
     if args.stream.stream {
-        let opts = StreamOptions {
-            io_budget: args.stream.io_budget,
-            cache_bytes: args.stream.cache,
-            max_frames: args.stream.max_frames,
-            ..StreamOptions::default()
-        };
         let input = input.to_string_lossy();
-        return pocketsplat_sim::stream::cmd::run(&input, out, &settings, &opts, args.stats_json);
+        return pocketsplat_sim::stream::cmd::run(
+            &input,
+            out,
+            &settings,
+            &stream_opts,
+            args.stats_json,
+        );
     }
     report(
         snapshot::render_file(input, out, &settings)?,
         args.stats_json,
     )
+}
+
+/// Whether `input` is a scene pack: by its first bytes for a file, by its name (`.pack`) for a URL
+/// that is streamed (which is not read before the stream opens it).
+fn is_pack_input(input: &std::path::Path, stream: bool) -> bool {
+    let text = input.to_string_lossy();
+    if stream && pocketsplat_sim::stream::HttpSource::is_url(&text) {
+        return text
+            .rsplit('/')
+            .next()
+            .and_then(|name| name.split(['?', '#']).next())
+            .is_some_and(|name| name.to_ascii_lowercase().ends_with(".pack"));
+    }
+    pocketsplat_sim::input::is_pack(input)
 }
 
 /// Prints the statistics (`--stats-json`, on stdout) or what was written (on stderr).

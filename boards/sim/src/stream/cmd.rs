@@ -1,17 +1,60 @@
-//! `pocketsplat render INPUT --stream`: draw a `.tg` or `.qs` file or URL through the block cache, reading at
-//! most `--io-budget` bytes per frame, until a frame misses nothing; write that frame.
+//! `pocketsplat render INPUT --stream`: draw a `.tg`, `.qs` or `.pack` file or URL through block
+//! caches, reading at most `--io-budget` bytes per frame, until a frame misses nothing; write that
+//! frame.
 
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use pocketsplat_core::stream::ChunkSource;
 use serde_json::json;
 
 use super::file::FileSource;
 use super::http::HttpSource;
-use super::run::{stream_render, stream_render_with, StreamOptions, StreamOutcome};
+use super::pack::stream_pack;
+use super::run::{stream_render_with, StreamOptions, StreamOutcome};
 use crate::image;
-use crate::render::Settings;
+use crate::render::{FrameBuffers, Settings};
+use crate::snapshot::PackArgs;
+
+/// What a streamed render draws, over any source.
+trait Draw {
+    /// Streams from `src` into `fb` until a frame converges.
+    fn draw<C: ChunkSource + ?Sized>(
+        &self,
+        src: &mut C,
+        fb: &mut FrameBuffers,
+        before_serve: impl FnMut(&mut C) -> Result<()>,
+    ) -> Result<StreamOutcome>;
+}
+
+/// A `.tg` or `.qs` file.
+struct Model<'a>(&'a Settings, &'a StreamOptions);
+
+impl Draw for Model<'_> {
+    fn draw<C: ChunkSource + ?Sized>(
+        &self,
+        src: &mut C,
+        fb: &mut FrameBuffers,
+        before_serve: impl FnMut(&mut C) -> Result<()>,
+    ) -> Result<StreamOutcome> {
+        stream_render_with(src, self.0, self.1, fb, before_serve)
+    }
+}
+
+/// A scene pack.
+struct Scene<'a>(&'a PackArgs, &'a StreamOptions);
+
+impl Draw for Scene<'_> {
+    fn draw<C: ChunkSource + ?Sized>(
+        &self,
+        src: &mut C,
+        fb: &mut FrameBuffers,
+        before_serve: impl FnMut(&mut C) -> Result<()>,
+    ) -> Result<StreamOutcome> {
+        stream_pack(src, |pack| self.0.settings(pack), self.1, fb, before_serve)
+    }
+}
 
 /// The `render --stream` command: `input` is a path or an `http://` URL.
 ///
@@ -25,8 +68,52 @@ pub fn run(
     opts: &StreamOptions,
     stats_json: bool,
 ) -> Result<()> {
-    let t = Instant::now();
     let mut fb = settings.buffers();
+    run_with(
+        input,
+        out,
+        &Model(settings, opts),
+        opts,
+        &mut fb,
+        settings.color_by_level,
+        stats_json,
+    )
+}
+
+/// `render scene.pack --stream` (a path or an `http://` URL): every object streamed through its
+/// share of the cache, with the pack's light and shadows unless `args` say otherwise.
+///
+/// # Errors
+/// As [`run`], and an object whose share of the cache is smaller than its file needs.
+pub fn run_pack(
+    input: &str,
+    out: &Path,
+    args: &PackArgs,
+    opts: &StreamOptions,
+    stats_json: bool,
+) -> Result<()> {
+    let mut fb = FrameBuffers::sized(args.size);
+    run_with(
+        input,
+        out,
+        &Scene(args, opts),
+        opts,
+        &mut fb,
+        args.color_by_level,
+        stats_json,
+    )
+}
+
+fn run_with(
+    input: &str,
+    out: &Path,
+    what: &impl Draw,
+    opts: &StreamOptions,
+    fb: &mut FrameBuffers,
+    color_by_level: bool,
+    stats_json: bool,
+) -> Result<()> {
+    let t = Instant::now();
     let (outcome, http) = if HttpSource::is_url(input) {
         let mut src = HttpSource::new(input)
             .with_context(|| input.to_string())?
@@ -34,23 +121,25 @@ pub fn run(
         // Opening has one deadline, each frame one; a server that ignores ranges or misses a
         // deadline ends the render with its error.
         src.begin_open();
-        let o = stream_render_with(&mut src, settings, opts, &mut fb, |s| {
-            if let Some(why) = s.fatal() {
-                anyhow::bail!("{why}");
-            }
-            s.begin_frame();
-            Ok(())
-        })
-        .with_context(|| input.to_string())?;
+        let o = what
+            .draw(&mut src, fb, |s| {
+                if let Some(why) = s.fatal() {
+                    anyhow::bail!("{why}");
+                }
+                s.begin_frame();
+                Ok(())
+            })
+            .with_context(|| input.to_string())?;
         (o, Some(src.counters))
     } else {
         let mut src =
             FileSource::open(Path::new(input)).with_context(|| format!("cannot open {input}"))?;
-        let o =
-            stream_render(&mut src, settings, opts, &mut fb).with_context(|| input.to_string())?;
+        let o = what
+            .draw(&mut src, fb, |_| Ok(()))
+            .with_context(|| input.to_string())?;
         (o, None)
     };
-    if settings.color_by_level {
+    if color_by_level {
         // The image draws infallibly.
         let _ = crate::levels::legend_in_corner(&mut fb.image);
     }

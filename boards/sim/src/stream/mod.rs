@@ -1,10 +1,11 @@
 //! Streaming on the desktop: the sources a simulator reads a model from (a host file, HTTP/1.1 byte
 //! ranges from any web server, a FAT disk image through embedded-sdmmc) and the frame loop that
-//! streams a `.tg` until it converges (`pocketsplat render --stream`).
+//! streams a `.tg`, a `.qs` or a scene pack until it converges (`pocketsplat render --stream`).
 
 pub mod cmd;
 pub mod file;
 pub mod http;
+pub mod pack;
 pub mod run;
 pub mod sd;
 

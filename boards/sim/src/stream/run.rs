@@ -10,8 +10,8 @@ use pocketsplat_core::render::{render_qs_stream, render_stream, StreamPass};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
-    read_tg_header, BlockCache, BlockEntry, ChunkSource, QsStream, ServeReport, SlotEntry,
-    StreamCounters, StreamError, TgStream,
+    read_tg_header, BlockEntry, ChunkSource, QsStream, ServeReport, SlotEntry, StreamCounters,
+    StreamError, TgStream,
 };
 use pocketsplat_core::tg::Header;
 
@@ -124,6 +124,21 @@ impl OwnedStream {
         Ok(stream)
     }
 
+    /// The fewest bytes of cache a stream of this file takes ([`TgStream::cache_need`] blocks),
+    /// found by opening it through this memory (any size).
+    ///
+    /// # Errors
+    /// When the header, CRC table or head cannot be read or is invalid.
+    pub fn need_bytes<C: ChunkSource + ?Sized>(&mut self, src: &mut C) -> Result<usize> {
+        let bs = self.header.block_size();
+        let blocks = match TgStream::open(src, &mut self.data, &mut self.slots, &mut self.blocks) {
+            Ok(s) => s.cache_need(),
+            Err(StreamError::CacheTooSmall { needed, .. }) => needed,
+            Err(e) => bail!("{e}"),
+        };
+        Ok(blocks as usize * bs)
+    }
+
     /// Bytes of the cache.
     pub fn cache_bytes(&self) -> usize {
         self.data.len()
@@ -212,8 +227,8 @@ pub trait Streamed {
     fn passes(&self) -> u32;
     /// Blocks the last frame used and queued.
     fn working_set(&self) -> u32;
-    /// The block cache.
-    fn block_cache(&self) -> &BlockCache<'_>;
+    /// Blocks the cache (or caches) hold, and how many are resident.
+    fn cache_blocks(&self) -> (usize, usize);
     /// Cumulative counts.
     fn stream_counters(&self) -> StreamCounters;
     /// What the last frame missed.
@@ -256,8 +271,8 @@ impl Streamed for TgStream<'_> {
     fn working_set(&self) -> u32 {
         TgStream::working_set(self)
     }
-    fn block_cache(&self) -> &BlockCache<'_> {
-        self.cache()
+    fn cache_blocks(&self) -> (usize, usize) {
+        (self.cache().capacity(), self.cache().resident())
     }
     fn stream_counters(&self) -> StreamCounters {
         *self.counters()
@@ -319,8 +334,8 @@ impl Streamed for QsStream<'_> {
     fn working_set(&self) -> u32 {
         QsStream::working_set(self)
     }
-    fn block_cache(&self) -> &BlockCache<'_> {
-        self.cache()
+    fn cache_blocks(&self) -> (usize, usize) {
+        (self.cache().capacity(), self.cache().resident())
     }
     fn stream_counters(&self) -> StreamCounters {
         *self.counters()
@@ -531,7 +546,7 @@ pub fn stream_pass<T: Streamed>(
 
 /// The frame loop of [`stream_render_with`] over an open stream of either format.
 #[allow(clippy::too_many_arguments)]
-fn converge<T: Streamed, C: ChunkSource + ?Sized>(
+pub(crate) fn converge<T: Streamed, C: ChunkSource + ?Sized>(
     stream: &mut T,
     src: &mut C,
     settings: &Settings,
@@ -571,7 +586,7 @@ fn converge<T: Streamed, C: ChunkSource + ?Sized>(
         // evicts (it is full) they may take turns evicting what the next one needs, so the frame
         // goes on in passes, which converge through any cache `open` accepted.
         if !refining
-            && (stream.working_set() as usize > stream.block_cache().capacity()
+            && (stream.working_set() as usize > stream.cache_blocks().0
                 || stream.stream_counters().evictions > 0)
         {
             refining = true;
@@ -633,16 +648,17 @@ fn converge<T: Streamed, C: ChunkSource + ?Sized>(
             }
             let bs = mem_block_size;
             let need = stream.cache_need();
-            if need as usize > stream.block_cache().capacity() {
+            let capacity = stream.cache_blocks().0;
+            if need as usize > capacity {
                 // Known as the walk goes down (a `.qs` file says nothing of its depth up front).
-                return Err(too_small(stream.block_cache().capacity() * bs, bs, need));
+                return Err(too_small(capacity * bs, bs, need));
             }
             bail!(
                 "a pass found no room in the cache of {} blocks ({} bytes) for the {} blocks it \
                  needs next, so the frame cannot be finished; this file was taken to need {} \
                  blocks (a bug in that bound): try a larger --cache",
-                stream.block_cache().capacity(),
-                stream.block_cache().capacity() * bs,
+                capacity,
+                capacity * bs,
                 r.no_room,
                 stream.cache_need()
             );
@@ -653,7 +669,6 @@ fn converge<T: Streamed, C: ChunkSource + ?Sized>(
         outcome.refined_reads = outcome.counters.reads - at_refine.reads;
         outcome.refined_bytes = outcome.counters.bytes_read - at_refine.bytes_read;
     }
-    outcome.resident_blocks = stream.block_cache().resident();
-    outcome.cache_blocks = stream.block_cache().capacity();
+    (outcome.cache_blocks, outcome.resident_blocks) = stream.cache_blocks();
     Ok(outcome)
 }
