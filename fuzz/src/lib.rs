@@ -631,3 +631,74 @@ pub fn qs_stream_checked(
         }
     });
 }
+
+/// Streams the pack `bytes` through `script`'s flaky medium (damaged reads made failed reads, as
+/// for `.qs`: a pack's QSplat objects have no CRCs) with a `cache_bytes` cache and `budget` bytes of
+/// reads per frame, for up to `frames` frames, from the pack's first view with `shadows` (0 off,
+/// 1 one-pass, 2 two-pass). Nothing may panic; when the stream converges and the pack opens whole,
+/// the frame must be the pack's resident frame.
+pub fn pack_stream_checked(
+    bytes: &[u8],
+    script: &[u8],
+    shadows: u8,
+    frames: u32,
+    budget: u32,
+    cache_bytes: usize,
+) {
+    use pocketsplat_core::scene::{Pack, Scene};
+    use pocketsplat_sim::scene::render::{render_pack, PackSettings};
+    use pocketsplat_sim::stream::pack::stream_pack;
+    use pocketsplat_sim::stream::StreamOptions;
+    let script: Vec<u8> = script
+        .iter()
+        .map(|&op| if op & 3 == 2 { op | 1 } else { op })
+        .collect();
+    let mut src = FlakySource {
+        bytes,
+        script: &script,
+        reads: 0,
+    };
+    let mode =
+        [ShadowMode::Off, ShadowMode::OnePass, ShadowMode::TwoPass][usize::from(shadows % 3)];
+    let settings = |pack: &Pack<'_>| {
+        let view = pack.view(0).map_or(View::new(30.0, 20.0, 2.5), |(_, v)| v);
+        let mut s = PackSettings::new(view);
+        s.shadows = Some(mode);
+        s
+    };
+    let opts = StreamOptions {
+        io_budget: budget.max(512),
+        cache_bytes,
+        max_frames: frames,
+        ..StreamOptions::default()
+    };
+    let mut fb = FrameBuffers::new();
+    let mut chosen = None;
+    let streamed = stream_pack(
+        &mut src,
+        |p| {
+            let s = settings(p);
+            chosen = Some(s);
+            Ok(s)
+        },
+        &opts,
+        &mut fb,
+        |_| Ok(()),
+    );
+    let (Ok(_), Some(s)) = (streamed, chosen) else {
+        return;
+    };
+    let Ok(pack) = Pack::open(bytes) else {
+        return;
+    };
+    let Ok(scene) = Scene::open(pack, Verify::Full) else {
+        return;
+    };
+    let mut resident = FrameBuffers::new();
+    if render_pack(&scene, &s, &mut resident).is_ok() {
+        assert!(
+            fb.pixels() == resident.pixels(),
+            "converged stream differs from the resident frame"
+        );
+    }
+}

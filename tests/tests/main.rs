@@ -18,4 +18,5 @@ mod qsplat;
 mod shadows;
 mod stream;
 mod stream_http;
+mod stream_pack;
 mod stream_sd;

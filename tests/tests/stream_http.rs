@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::{View, STANDARD_VIEWS};
-use pocketsplat_core::shade::ShadingTable;
+use pocketsplat_core::shade::{ShadingTable, ShadowMode};
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
 use pocketsplat_sim::stream::run::stream_frame;
@@ -333,5 +333,50 @@ fn the_qsplat_dragon_streams_from_nginx_to_the_resident_frame() {
                 100.0 * c.body as f64 / bytes.len() as f64
             );
         }
+    }
+}
+
+/// A scene pack from nginx (issue 31, item 2): the Big Scene streamed by `render --stream`'s own
+/// code (`stream::cmd::run_pack`) over HTTP writes the PNG `render` writes from the local pack,
+/// byte for byte: with the pack's one-pass shadows through the default cache, and without shadows
+/// through 512 KB (its frame drawn in passes).
+#[test]
+fn the_big_scene_streams_from_nginx_to_the_resident_png() {
+    use pocketsplat_sim::snapshot::{render_pack_file, PackArgs};
+    let Some(bin) = nginx() else {
+        return;
+    };
+    let Some(path) = pocketsplat_tests::arm::baked_big_scene(3).unwrap() else {
+        return;
+    };
+    let root = tempfile::tempdir().unwrap();
+    let local = root.path().join("big.pack");
+    std::fs::copy(&path, &local).unwrap();
+    let server = start_nginx(&bin, root.path());
+    let url = format!("http://127.0.0.1:{}/big.pack", server.port);
+    for (shadows, cache) in [(None, 16 << 20), (Some(ShadowMode::Off), 512 << 10)] {
+        let args = PackArgs {
+            view: "std".into(),
+            fov: None,
+            cutoff_px: 2.0,
+            kernel: Default::default(),
+            light_az_el: None,
+            shadows,
+            color_by_level: false,
+            size: pocketsplat_core::camera::Viewport::default(),
+        };
+        let want = root.path().join("want.png");
+        render_pack_file(&local, &want, &args).unwrap();
+        let got = root.path().join("got.png");
+        let opts = StreamOptions {
+            cache_bytes: cache,
+            max_frames: 100_000,
+            ..StreamOptions::default()
+        };
+        pocketsplat_sim::stream::cmd::run_pack(&url, &got, &args, &opts, true).unwrap();
+        assert!(
+            std::fs::read(&want).unwrap() == std::fs::read(&got).unwrap(),
+            "{shadows:?} --cache {cache}: the streamed PNG differs"
+        );
     }
 }
