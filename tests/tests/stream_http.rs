@@ -373,7 +373,7 @@ fn the_big_scene_streams_from_nginx_to_the_resident_png() {
             max_frames: 100_000,
             ..StreamOptions::default()
         };
-        pocketsplat_sim::stream::cmd::run_pack(&url, &got, &args, &opts, true).unwrap();
+        pocketsplat_sim::stream::cmd::run_pack(&url, None, &got, &args, &opts, true).unwrap();
         assert!(
             std::fs::read(&want).unwrap() == std::fs::read(&got).unwrap(),
             "{shadows:?} --cache {cache}: the streamed PNG differs"

@@ -389,3 +389,58 @@ fn hostile_packs_streamed_end_in_a_clear_error() {
         eprintln!("{what}: {msg}");
     }
 }
+
+/// The Big Scene at the paper's scale (issue 31, item 3): `boards/sim/scenes/paper.toml` baked
+/// here (more than the paper's 11.0 M samples), on a FAT image as `SCENE.PAK`, streamed through
+/// embedded-sdmmc: the std view with one-pass shadows through 64 MB, and without shadows through
+/// 2 MB (passes), each the resident frame. `scripts/paper-scene` does the same for every view
+/// through the command line.
+#[test]
+fn the_paper_scale_big_scene_streams_from_a_fat_image() {
+    if !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    for scan in pocketsplat_tests::arm::BIG_SCENE_SCANS {
+        if pocketsplat_tests::model(scan).is_none() {
+            return;
+        }
+    }
+    let toml = pocketsplat_tests::workspace_root().join("boards/sim/scenes/paper.toml");
+    let bytes = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
+        .unwrap()
+        .bytes;
+    let pack = Pack::open(&bytes).unwrap();
+    let scene = Scene::open(pack, Verify::Full).unwrap();
+    let samples: u64 = (0..scene.len())
+        .filter_map(|i| scene.grid(i))
+        .map(|g| g.total_samples())
+        .sum();
+    assert!(
+        samples >= 11_000_000,
+        "{samples} samples: fewer than the paper's 11.0 M"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let image = make_image(dir.path(), &bytes, "SCENE.PAK");
+    let view = pack.view_named("std").unwrap();
+    for (mode, cache) in [(ShadowMode::OnePass, 64 << 20), (ShadowMode::Off, 2 << 20)] {
+        let s = settings(view, mode, 1.0);
+        let mut want = FrameBuffers::new();
+        render_pack(&scene, &s, &mut want).unwrap();
+        let (crc, out) = pocketsplat_sim::stream::sd::with_file(&image, "SCENE.PAK", |sd| {
+            streamed(sd, &s, cache)
+        })
+        .unwrap();
+        assert_eq!(crc, want.crc(), "{mode:?} --cache {cache}: other pixels");
+        eprintln!(
+            "paper scale, {samples} samples, {} bytes: std {} through {} KB: {} frames, {} passes, \
+             {} bytes read ({} in the refined frame)",
+            bytes.len(),
+            mode.name(),
+            cache >> 10,
+            out.frames,
+            out.passes,
+            out.counters.bytes_read,
+            out.refined_bytes
+        );
+    }
+}

@@ -69,6 +69,11 @@ pub struct StreamArgs {
     #[arg(long, default_value = "16M", requires = "stream",
           value_parser = args::size::<usize>(4 << 10, 1 << 30))]
     cache: usize,
+    /// With `--stream`: INPUT names a file in the root directory of the FAT volume on this disk
+    /// image (an SD card's image: an MBR, then FAT16 or FAT32), read through embedded-sdmmc as the
+    /// handheld reads its card; a name ending `.PAK` or `.PACK` is a scene pack.
+    #[arg(long, requires = "stream", value_name = "IMAGE")]
+    sd_image: Option<std::path::PathBuf>,
     /// With `--stream`: give up (an error, no output) after this many frames (1 to 1M), e.g.
     /// when the view needs more blocks at once than the cache holds.
     #[arg(long, default_value = "1000", requires = "stream",
@@ -89,7 +94,8 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
         max_frames: args.stream.max_frames,
         ..StreamOptions::default()
     };
-    if is_pack_input(input, args.stream.stream) {
+    let sd_image = args.stream.sd_image.as_deref();
+    if is_pack_input(input, args.stream.stream, sd_image.is_some()) {
         // A pack brings its own light, shadows and field of view: flags left out keep them.
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
         let f = &args.frame;
@@ -107,6 +113,7 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
             let input = input.to_string_lossy();
             return pocketsplat_sim::stream::cmd::run_pack(
                 &input,
+                sd_image,
                 out,
                 &pack,
                 &stream_opts,
@@ -122,8 +129,9 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
     settings.light_pos = args.light_pos;
     if args.stream.stream {
         let input = input.to_string_lossy();
-        return pocketsplat_sim::stream::cmd::run(
+        return pocketsplat_sim::stream::cmd::run_on(
             &input,
+            sd_image,
             out,
             &settings,
             &stream_opts,
@@ -136,10 +144,15 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
     )
 }
 
-/// Whether `input` is a scene pack: by its first bytes for a file, by its name (`.pack`) for a URL
-/// that is streamed (which is not read before the stream opens it).
-fn is_pack_input(input: &std::path::Path, stream: bool) -> bool {
+/// Whether `input` is a scene pack: by its first bytes for a file, by its name (`.pack`, or `.pak`
+/// on an SD image) for a URL or a file on a disk image that is streamed (which is not read before
+/// the stream opens it).
+fn is_pack_input(input: &std::path::Path, stream: bool, on_sd: bool) -> bool {
     let text = input.to_string_lossy();
+    if stream && on_sd {
+        let name = text.to_ascii_lowercase();
+        return name.ends_with(".pak") || name.ends_with(".pack");
+    }
     if stream && pocketsplat_sim::stream::HttpSource::is_url(&text) {
         return text
             .rsplit('/')

@@ -68,9 +68,26 @@ pub fn run(
     opts: &StreamOptions,
     stats_json: bool,
 ) -> Result<()> {
+    run_on(input, None, out, settings, opts, stats_json)
+}
+
+/// [`run`] with `input` the name of a file on the FAT volume of the disk image `sd_image` (an SD
+/// card's image, read through embedded-sdmmc as the handheld reads its card), when given.
+///
+/// # Errors
+/// As [`run`], and an image without a FAT volume or without the file.
+pub fn run_on(
+    input: &str,
+    sd_image: Option<&Path>,
+    out: &Path,
+    settings: &Settings,
+    opts: &StreamOptions,
+    stats_json: bool,
+) -> Result<()> {
     let mut fb = settings.buffers();
     run_with(
         input,
+        sd_image,
         out,
         &Model(settings, opts),
         opts,
@@ -80,13 +97,15 @@ pub fn run(
     )
 }
 
-/// `render scene.pack --stream` (a path or an `http://` URL): every object streamed through its
+/// `render scene.pack --stream` (a path, an `http://` URL, or with `sd_image` a file on that
+/// image's FAT volume, as in [`run_on`]): every object streamed through its
 /// share of the cache, with the pack's light and shadows unless `args` say otherwise.
 ///
 /// # Errors
 /// As [`run`], and an object whose share of the cache is smaller than its file needs.
 pub fn run_pack(
     input: &str,
+    sd_image: Option<&Path>,
     out: &Path,
     args: &PackArgs,
     opts: &StreamOptions,
@@ -95,6 +114,7 @@ pub fn run_pack(
     let mut fb = FrameBuffers::sized(args.size);
     run_with(
         input,
+        sd_image,
         out,
         &Scene(args, opts),
         opts,
@@ -104,8 +124,10 @@ pub fn run_pack(
     )
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_with(
     input: &str,
+    sd_image: Option<&Path>,
     out: &Path,
     what: &impl Draw,
     opts: &StreamOptions,
@@ -114,7 +136,11 @@ fn run_with(
     stats_json: bool,
 ) -> Result<()> {
     let t = Instant::now();
-    let (outcome, http) = if HttpSource::is_url(input) {
+    let (outcome, http) = if let Some(image) = sd_image {
+        let o = super::sd::with_file(image, input, |sd| what.draw(sd, fb, |_| Ok(())))
+            .with_context(|| format!("{input} on {}", image.display()))?;
+        (o, None)
+    } else if HttpSource::is_url(input) {
         let mut src = HttpSource::new(input)
             .with_context(|| input.to_string())?
             .with_deadlines(opts.request_deadline, opts.frame_deadline);

@@ -65,3 +65,37 @@ impl BlockDevice for FileBlockDevice {
 
 /// The read-only clock, the core's (one definition for every board).
 pub use pocketsplat_core::stream::sdmmc::NoClock;
+
+/// Runs `f` on the file `name` in the root directory of the FAT volume of the disk image at
+/// `image` (an MBR, then the volume), read through embedded-sdmmc: the simulator's SD card.
+///
+/// # Errors
+/// When the image cannot be opened, has no FAT volume or no such file, or `f` fails.
+pub fn with_file<R>(
+    image: &Path,
+    name: &str,
+    f: impl FnOnce(
+        &mut pocketsplat_core::stream::sdmmc::SdFile<'_, FileBlockDevice, NoClock, 4, 4, 1>,
+    ) -> anyhow::Result<R>,
+) -> anyhow::Result<R> {
+    use anyhow::{anyhow, Context};
+    let device = FileBlockDevice::open(image)
+        .with_context(|| format!("cannot open the disk image {}", image.display()))?;
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 4, 4, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
+    let volume = volumes
+        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
+        .map_err(|e| anyhow!("no FAT volume in its first partition: {e:?}"))?;
+    let root = volumes
+        .open_root_dir(volume)
+        .map_err(|e| anyhow!("cannot open the root directory: {e:?}"))?;
+    let handle = volumes
+        .open_file_in_dir(root, name, embedded_sdmmc::Mode::ReadOnly)
+        .map_err(|e| anyhow!("no file {name} in the root directory: {e:?}"))?;
+    let mut sd = pocketsplat_core::stream::sdmmc::SdFile::new(&volumes, handle);
+    let r = f(&mut sd);
+    let _ = volumes.close_file(handle);
+    let _ = volumes.close_dir(root);
+    let _ = volumes.close_volume(volume);
+    r
+}
