@@ -814,16 +814,18 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             self.hooks.casts_subtree(l, p, mask & Self::SLOT_BITS);
             return;
         }
-        if D::STREAMED
-            && !self.data.children_resident(
-                level,
-                index,
-                first_child,
-                (mask & Self::SLOT_BITS).count_ones(),
-            )
-        {
-            self.hooks.casts(l, p);
-            return;
+        if D::STREAMED {
+            let n = (mask & Self::SLOT_BITS).count_ones();
+            if !self.data.children_resident(level, index, first_child, n) {
+                // Cast coarser for now, and ask for the children as a drawn cell does: the frame
+                // is not the resident one (it does not count as converged) until they are in.
+                // Unseen, they wait behind everything on screen (the lowest priority: no size, the
+                // last row).
+                self.data
+                    .request_children(level, index, first_child, n, 0, i32::MAX);
+                self.hooks.casts(l, p);
+                return;
+            }
         }
         // Only the light sees this subtree and fills keep the nearer depth, so the order of its
         // fills cannot change a test: slot order.
