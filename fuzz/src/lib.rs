@@ -563,10 +563,7 @@ pub fn qs_stream_checked(
     use pocketsplat_sim::stream::run::{stream_frame, stream_pass, OwnedQsStream, Streamed};
     let mut settings = look.settings();
     settings.shadows = ShadowMode::Off;
-    let script: Vec<u8> = script
-        .iter()
-        .map(|&op| if op & 3 == 2 { op | 1 } else { op })
-        .collect();
+    let script = damage_fails(script);
     let mut src = FlakySource {
         bytes,
         script: &script,
@@ -632,6 +629,15 @@ pub fn qs_stream_checked(
     });
 }
 
+/// `script` with its damaged reads (op 2) made failed reads (op 3): for media whose files have no
+/// CRCs (QSplat), where a damaged byte that still reads as valid data is not an error to find.
+fn damage_fails(script: &[u8]) -> Vec<u8> {
+    script
+        .iter()
+        .map(|&op| if op & 3 == 2 { op | 1 } else { op })
+        .collect()
+}
+
 /// Streams the pack `bytes` through `script`'s flaky medium (damaged reads made failed reads, as
 /// for `.qs`: a pack's QSplat objects have no CRCs) with a `cache_bytes` cache and `budget` bytes of
 /// reads per frame, for up to `frames` frames, from the pack's first view with `shadows` (0 off,
@@ -649,10 +655,7 @@ pub fn pack_stream_checked(
     use pocketsplat_sim::scene::render::{render_pack, PackSettings};
     use pocketsplat_sim::stream::pack::stream_pack;
     use pocketsplat_sim::stream::StreamOptions;
-    let script: Vec<u8> = script
-        .iter()
-        .map(|&op| if op & 3 == 2 { op | 1 } else { op })
-        .collect();
+    let script = damage_fails(script);
     let mut src = FlakySource {
         bytes,
         script: &script,
