@@ -109,17 +109,18 @@ pub use render::{
     render, render_marked, Drawn, FrameError, Layer, Model, ModelError, Phase, RenderError,
     RenderOptions, Target,
 };
-#[cfg(feature = "stream")]
-pub use render::{render_stream, StreamPass};
 pub use shade::{Material, ShadingTable, ShadowMode};
 #[cfg(feature = "shadows")]
 pub use shadow::LightFrame;
 pub use splat::{ColorSink, SampleSplat, SplatSink, Stats};
-#[cfg(feature = "stream")]
-pub use stream::{ChunkSource, MemSource};
 pub use test_panel::TestPanel;
 #[cfg(feature = "trigrid")]
 pub use tg::Verify;
+#[cfg(feature = "stream")]
+pub use {
+    render::{render_stream, StreamPass},
+    stream::{ChunkSource, MemSource},
+};
 
 /// Helpers of the unit tests.
 #[cfg(test)]

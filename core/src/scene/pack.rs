@@ -358,7 +358,7 @@ impl<'a> Pack<'a> {
     }
 
     /// The metadata length a pack's header (its first 20 bytes or more) announces; 0 when `head`
-    /// is shorter. A stream reads the header, then this many bytes ([`MAX_META_BYTES`] at most in
+    /// is shorter. A stream reads the header, then this many bytes ([`super::MAX_META_BYTES`] at most in
     /// a valid pack).
     pub fn meta_len_of(head: &[u8]) -> u32 {
         head.get(16..20)

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use pocketsplat_core::camera::Sphere;
 use pocketsplat_core::scene::{ram_budget, RamBudget, Savings, ShadowMode};
 use serde_json::json;
@@ -48,6 +48,10 @@ pub struct PackInfo {
     pub saved_bytes: u64,
     /// RAM a frame needs on the device.
     pub ram: RamBudget,
+    /// The fewest bytes of cache each object streams through (`render --stream`).
+    pub stream_caches: Vec<usize>,
+    /// The objects' names, in pack order.
+    pub object_names: Vec<String>,
 }
 
 /// Statistics of a pack's bytes; `path` names it in errors.
@@ -57,6 +61,9 @@ pub struct PackInfo {
 pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
     let scene = crate::input::open_pack(path, bytes)?;
     let pack = scene.pack();
+    let mut src = pocketsplat_core::stream::MemSource::new(bytes);
+    let stream_caches = crate::stream::pack::least_caches(&mut src, pack)
+        .with_context(|| path.display().to_string())?;
     let mut objects = Vec::new();
     for i in 0..scene.len() {
         let Some(r) = pack.object(i) else {
@@ -144,6 +151,11 @@ pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
             pack.shadow_map_size(),
             pocketsplat_core::camera::Viewport::DEFAULT,
         ),
+        stream_caches,
+        object_names: (0..pack.object_count())
+            .filter_map(|i| pack.object(i))
+            .map(|r| r.name.to_string())
+            .collect(),
     })
 }
 
@@ -168,6 +180,7 @@ impl PackInfo {
             "sphere": {"center": self.sphere.center, "radius": self.sphere.radius},
             "saved_bytes": self.saved_bytes,
             "ram": ram_json(&self.ram),
+            "stream_cache_bytes": self.stream_caches.iter().sum::<usize>(),
         })
     }
 
@@ -288,6 +301,19 @@ impl PackInfo {
             ram.cache,
             ram.frame_setup,
             ram.scene
+        );
+        let total: usize = self.stream_caches.iter().sum();
+        let _ = writeln!(
+            out,
+            "  streaming needs --cache {} or more ({}), and the cache must hold a frame's blocks \
+             for its shadows",
+            crate::stream::run::cache_arg(total as u64),
+            self.object_names
+                .iter()
+                .zip(&self.stream_caches)
+                .map(|(n, c)| format!("{n} {}", crate::stream::run::cache_arg(*c as u64)))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         out
     }

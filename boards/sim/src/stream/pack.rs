@@ -1,6 +1,6 @@
 //! `pocketsplat render scene.pack --stream`: a scene pack drawn while its objects' files are read
 //! in blocks (a file, HTTP byte ranges, a FAT image), each object through its own block cache, by
-//! the core's [`SceneStream`] and the frame loop every stream shares ([`super::run::converge`]).
+//! the core's [`SceneStream`] and the frame loop every stream shares (`stream::run::converge`).
 
 use anyhow::{anyhow, bail, Context, Result};
 use pocketsplat_core::camera::Camera;
@@ -53,11 +53,32 @@ enum OwnedObject {
     QSplat(OwnedQsStream),
 }
 
+/// The fewest bytes of cache each object of the pack on `src` streams through: a tri-grid's
+/// [`OwnedStream::need_bytes`] (found by opening it through a small cache), a QSplat file's bound
+/// [`QsStream::MAX_CACHE_NEED`] (its need is known only as its walk goes down), never more than
+/// the whole file and the block its last bytes share. What `info` reports and what
+/// `render --stream` gives each object first.
+///
+/// # Errors
+/// When an object's header cannot be read or is invalid.
+pub fn least_caches<C: ChunkSource + ?Sized>(src: &mut C, pack: &Pack<'_>) -> Result<Vec<usize>> {
+    let mut needs = Vec::with_capacity(pack.object_count());
+    for i in 0..pack.object_count() {
+        let rec = pack.object(i).context("an object the pack counts")?;
+        let mut win = Window::of(src, &rec);
+        let need = match rec.kind {
+            Kind::TriGrid => OwnedStream::new(&mut win, 0).and_then(|mut m| m.need_bytes(&mut win)),
+            Kind::QSplat => Ok((QsStream::MAX_CACHE_NEED as usize) << QS_BLOCK_LOG2),
+        }
+        .with_context(|| format!("object {i} ({})", rec.name))?;
+        needs.push(need.min(rec.data_len as usize + (1 << 16)));
+    }
+    Ok(needs)
+}
+
 /// Bytes of cache each object of the pack on `src` gets out of `cache_bytes`: its whole file
-/// when every file fits; else first what each stream needs at the least (a tri-grid's
-/// [`OwnedStream::need_bytes`], found by opening it; a QSplat file's, known only as its walk goes
-/// down, at its bound [`QsStream::MAX_CACHE_NEED`] or its whole file if smaller), then the rest
-/// in proportion to what each file has beyond that.
+/// when every file fits; else first its [`least_caches`], then the rest in proportion to what
+/// each file has beyond that.
 ///
 /// # Errors
 /// When an object's header cannot be read, or the objects need more than `cache_bytes` at once.
@@ -74,17 +95,7 @@ fn cache_shares<C: ChunkSource + ?Sized>(
         // The whole file, and a block over for the one a file's last bytes share.
         return Ok(lens.iter().map(|&len| len + (1 << 16)).collect());
     }
-    let mut needs = Vec::with_capacity(recs.len());
-    for (i, rec) in recs.iter().enumerate() {
-        let mut win = Window::of(src, rec);
-        let need = match rec.kind {
-            Kind::TriGrid => OwnedStream::new(&mut win, 0).and_then(|mut m| m.need_bytes(&mut win)),
-            Kind::QSplat => Ok((QsStream::MAX_CACHE_NEED as usize) << QS_BLOCK_LOG2),
-        }
-        .with_context(|| format!("object {i} ({})", rec.name))?;
-        // Never more than the whole file (and the block its last bytes share).
-        needs.push(need.min(lens[i] + (1 << 16)));
-    }
+    let needs = least_caches(src, pack)?;
     let need: usize = needs.iter().sum();
     if need > cache_bytes {
         bail!(
@@ -93,11 +104,7 @@ fn cache_shares<C: ChunkSource + ?Sized>(
             cache_arg(cache_bytes as u64),
             recs.len(),
             cache_arg(need as u64),
-            recs.iter()
-                .zip(&needs)
-                .map(|(r, n)| format!("{} {}", r.name, cache_arg(*n as u64)))
-                .collect::<Vec<_>>()
-                .join(", "),
+            per_object(pack, &needs),
             cache_arg(need as u64)
         );
     }
@@ -113,6 +120,16 @@ fn cache_shares<C: ChunkSource + ?Sized>(
         .zip(&beyond)
         .map(|(&n, &b)| n + (spare * b / total) as usize)
         .collect())
+}
+
+/// `name size, …` of each object's `bytes`.
+fn per_object(pack: &Pack<'_>, bytes: &[usize]) -> String {
+    (0..pack.object_count())
+        .filter_map(|i| pack.object(i))
+        .zip(bytes)
+        .map(|(r, n)| format!("{} {}", r.name, cache_arg(*n as u64)))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Streams the pack on `src` with the camera and options `settings_of` gives for its metadata
