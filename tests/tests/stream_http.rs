@@ -339,7 +339,7 @@ fn the_qsplat_dragon_streams_from_nginx_to_the_resident_frame() {
 /// A scene pack from nginx (issue 31, item 2): the Big Scene streamed by `render --stream`'s own
 /// code (`stream::cmd::run_pack`) over HTTP writes the PNG `render` writes from the local pack,
 /// byte for byte: with the pack's one-pass shadows through the default cache, and without shadows
-/// through 512 KB (its frame drawn in passes).
+/// and with two-pass shadows through 512 KB (its frame drawn in passes).
 #[test]
 fn the_big_scene_streams_from_nginx_to_the_resident_png() {
     use pocketsplat_sim::snapshot::{render_pack_file, PackArgs};
@@ -354,7 +354,11 @@ fn the_big_scene_streams_from_nginx_to_the_resident_png() {
     std::fs::copy(&path, &local).unwrap();
     let server = start_nginx(&bin, root.path());
     let url = format!("http://127.0.0.1:{}/big.pack", server.port);
-    for (shadows, cache) in [(None, 16 << 20), (Some(ShadowMode::Off), 512 << 10)] {
+    for (shadows, cache) in [
+        (None, 16 << 20),
+        (Some(ShadowMode::Off), 512 << 10),
+        (Some(ShadowMode::TwoPass), 512 << 10),
+    ] {
         let args = PackArgs {
             view: "std".into(),
             fov: None,

@@ -2,9 +2,9 @@
 //! in blocks through its share of the cache, from a file and from a FAT image through
 //! embedded-sdmmc (the HTTP leg is in `stream_http`). Every converged frame must be the frame of
 //! the pack opened whole, byte for byte (CRC of the framebuffer), with the pack's shadows
-//! (one-pass, two-pass, off) while the cache holds the frame, and without shadows in passes
-//! through a cache smaller than the frame; one-pass shadows through such a cache end in an error
-//! that says why. Two packs: one generated here with a tri-grid ground, a generated tree and a
+//! (one-pass, two-pass, off) while the cache holds the frame, and without shadows or with two-pass
+//! shadows in passes through a cache smaller than the frame; one-pass shadows through such a
+//! cache end in an error that says why. Two packs: one generated here with a tri-grid ground, a generated tree and a
 //! QSplat knot (always runs), and the Big Scene (`boards/sim/scenes/big.toml`, real scans).
 //!
 //! `cargo test -p pocketsplat-tests --test all stream_pack:: -- --nocapture` prints the figures.
@@ -162,7 +162,8 @@ fn check_file(name: &str, bytes: &[u8], views: &[View], cutoff_px: f32) {
             let s = settings(view, mode, cutoff_px);
             let want = resident_crc(bytes, &s);
             let mut caches = vec![16 << 20];
-            if mode == ShadowMode::Off {
+            if mode != ShadowMode::OnePass {
+                // Passes: without shadows, and with two-pass shadows (the casts in passes first).
                 let need = needed_cache(&mut src, &s);
                 caches.extend([need, 2 * need]);
             }
@@ -187,12 +188,12 @@ fn check_file(name: &str, bytes: &[u8], views: &[View], cutoff_px: f32) {
                 );
             }
         }
-        // One-pass shadows through a cache the frame does not fit: passes have no shadows yet,
-        // and the error says so.
+        // One-pass shadows through a cache the frame does not fit: passes cannot resume a walk in
+        // light order yet, and the error says so.
         let s = settings(view, ShadowMode::OnePass, cutoff_px);
         let need = needed_cache(&mut src, &settings(view, ShadowMode::Off, cutoff_px));
         let err = format!("{:#}", streamed(&mut src, &s, need).unwrap_err());
-        assert!(err.contains("passes, without shadows"), "{name}: {err}");
+        assert!(err.contains("without one-pass shadows"), "{name}: {err}");
     }
 }
 
@@ -249,6 +250,7 @@ fn the_big_scene_streams_from_a_fat_image_through_embedded_sdmmc() {
     for (mode, cache) in [
         (ShadowMode::OnePass, 16 << 20),
         (ShadowMode::Off, 512 << 10),
+        (ShadowMode::TwoPass, 512 << 10),
     ] {
         let s = settings(view, mode, 2.0);
         let want = resident_crc(&bytes, &s);
@@ -297,7 +299,11 @@ fn the_paper_scale_big_scene_streams_from_a_fat_image() {
     let dir = tempfile::tempdir().unwrap();
     let image = make_image(dir.path(), &bytes, "SCENE.PAK");
     let view = pack.view_named("std").unwrap();
-    for (mode, cache) in [(ShadowMode::OnePass, 64 << 20), (ShadowMode::Off, 2 << 20)] {
+    for (mode, cache) in [
+        (ShadowMode::OnePass, 64 << 20),
+        (ShadowMode::Off, 2 << 20),
+        (ShadowMode::TwoPass, 2 << 20),
+    ] {
         let s = settings(view, mode, 1.0);
         let mut want = FrameBuffers::new();
         render_pack(&scene, &s, &mut want).unwrap();
@@ -322,7 +328,8 @@ fn the_paper_scale_big_scene_streams_from_a_fat_image() {
 /// blocks are absent they cast coarser, and the frame must not count as converged until those
 /// blocks are read. Close views with a 2048² map (casts stop at cells of one texel, deep in the
 /// files) and one block read per frame, so that the first frames lack what unseen casters need:
-/// every converged frame must be the resident one.
+/// every converged frame must be the resident one; and two-pass through the least cache, where
+/// the light pass is itself cast in passes (a later pass adding to what the earlier ones cast).
 #[test]
 fn a_frame_converges_only_once_what_it_casts_is_read() {
     let dir = tempfile::tempdir().unwrap();
@@ -354,6 +361,20 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
                 "{az} {el} {dist} {mode:?}: converged on other pixels"
             );
             checked += out.frames;
+            if mode == ShadowMode::TwoPass {
+                // Through the least cache: the light pass itself is cast in passes.
+                let need = needed_cache(&mut src, &s);
+                let (crc, out) = streamed(&mut src, &s, need).unwrap();
+                assert_eq!(
+                    crc, want,
+                    "{az} {el} {dist} two-pass in passes: other pixels"
+                );
+                assert!(
+                    out.passes > 1,
+                    "{az} {el} {dist}: drawn whole through the least cache"
+                );
+                checked += out.frames;
+            }
         }
     }
     eprintln!("{checked} frames streamed, each run ending on the resident frame");

@@ -226,6 +226,12 @@ pub fn render_scene_in<S: SplatSink>(
 pub(crate) trait Objects {
     /// Object `i`'s tri-grid header (`None`: not a tri-grid).
     fn grid_header(&self, i: usize) -> Option<Header>;
+    /// Whether this frame's shadow map starts empty (not for a refined frame's later passes,
+    /// which add to what the earlier ones cast).
+    #[cfg_attr(not(feature = "shadows"), allow(dead_code))]
+    fn fresh_map(&self) -> bool {
+        true
+    }
     /// Draws object `i`'s tri-grid through `hooks` (the shadows of its frame).
     fn draw_grid<S: SplatSink, H: ShadowHooks>(
         &mut self,
@@ -369,7 +375,9 @@ fn render_shadowed<O: Objects, S: SplatSink>(
         });
     }
     let mut map = ShadowMap::new(shadow_depths, side);
-    map.clear();
+    if objects.fresh_map() {
+        map.clear();
+    }
     let space = scene.light_space(opts.light_dir, side);
     let order = scene.light_order(&space);
     let two_pass = opts.shadows == ShadowMode::TwoPass;

@@ -74,8 +74,8 @@ pub enum SceneError {
         /// The object.
         object: u8,
     },
-    /// A streamed scene's refined frame drawn in passes has no shadows (its frames from what is
-    /// resident do).
+    /// A streamed scene's refined frame drawn in passes has no one-pass shadows (its frames from
+    /// what is resident do; passes draw two-pass shadows).
     ShadowedPasses,
     /// An object is a QSplat file but this build has no QSplat reader (feature `qsplat`).
     NoQSplat {
@@ -131,7 +131,8 @@ impl core::fmt::Display for SceneError {
             SceneError::ShadowedPasses => write!(
                 f,
                 "a streamed scene whose frame needs more blocks than the cache holds is drawn in \
-                 passes, without shadows: give a larger cache, or no shadows"
+                 passes, without one-pass shadows: give a larger cache, or --shadows two-pass \
+                 or off"
             ),
             SceneError::NoQSplat { object } => write!(
                 f,

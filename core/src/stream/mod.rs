@@ -72,6 +72,7 @@ use core::cell::Cell;
 #[cfg(feature = "qsplat")]
 use crate::qs::QsError;
 use crate::splat::{ColorSink, SampleSplat, SplatSink};
+use crate::tg::traverse::ShadowHooks;
 use crate::tg::TgError;
 
 /// A sink that draws only while a pass has drawn nothing out of order yet (a refined frame's pass
@@ -101,6 +102,61 @@ impl<S: ColorSink> ColorSink for PassSink<'_, S> {
     fn splat_colored(&mut self, s: &SampleSplat, rgb565: u16) {
         if self.drawing.get() {
             self.inner.splat_colored(s, rgb565);
+        }
+    }
+}
+
+/// Shadow hooks that fill the map only while a pass draws (a refined frame's pass stops drawing
+/// at its first absent block; what it casts after that would be coarse stand-ins), as
+/// [`PassSink`] draws.
+pub(crate) struct PassHooks<'a, H> {
+    pub inner: &'a mut H,
+    pub drawing: &'a Cell<bool>,
+}
+
+impl<H: ShadowHooks> ShadowHooks for PassHooks<'_, H> {
+    type Pos = H::Pos;
+    const FILL_CULLED: bool = H::FILL_CULLED;
+    #[inline(always)]
+    fn ordered(&self, level: usize) -> bool {
+        self.inner.ordered(level)
+    }
+    #[inline(always)]
+    fn root(&self) -> H::Pos {
+        self.inner.root()
+    }
+    #[inline(always)]
+    fn child(&self, parent: H::Pos, level: usize, slot: usize) -> H::Pos {
+        self.inner.child(parent, level, slot)
+    }
+    #[inline(always)]
+    fn order(&self) -> &crate::tg::traverse::SlotOrder {
+        self.inner.order()
+    }
+    #[inline(always)]
+    fn drawn(&mut self, level: usize, p: H::Pos, attr: u16) -> bool {
+        self.drawing.get() && self.inner.drawn(level, p, attr)
+    }
+    #[inline(always)]
+    fn casts(&mut self, level: usize, p: H::Pos) {
+        if self.drawing.get() {
+            self.inner.casts(level, p);
+        }
+    }
+    #[inline(always)]
+    fn light_stop(&self, level: usize) -> bool {
+        self.inner.light_stop(level)
+    }
+    #[inline(always)]
+    fn casts_subtree(&mut self, level: usize, p: H::Pos, mask: u32) {
+        if self.drawing.get() {
+            self.inner.casts_subtree(level, p, mask);
+        }
+    }
+    #[inline(always)]
+    fn descended(&mut self, level: usize, p: H::Pos, mask: u32) {
+        if self.drawing.get() {
+            self.inner.descended(level, p, mask);
         }
     }
 }

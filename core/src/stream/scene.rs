@@ -267,9 +267,6 @@ impl ObjectStream<'_> {
             ObjectStream::QSplat(s) => s.block_size(),
         }
     }
-    fn begin_refined(&mut self) {
-        each!(self, s => s.begin_refined());
-    }
     fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport {
         each!(self, s => s.serve(src, budget))
     }
@@ -280,8 +277,25 @@ impl ObjectStream<'_> {
 pub struct SceneStream<'m, 'a> {
     scene: Scene<'m>,
     objects: Vec<ObjectStream<'a>, MAX_OBJECTS>,
-    /// The object a refined frame is drawing (those before it are finished).
-    first: usize,
+    /// Where a refined frame drawn in passes stands.
+    refine: Refine,
+}
+
+/// Where a refined frame drawn in passes stands: its steps are the scene frame's casts (two-pass
+/// shadows) and draws, in the order the frame takes them, each an object drawn (or cast) in its
+/// own passes.
+#[derive(Clone, Copy, Debug, Default)]
+struct Refine {
+    /// The first step not finished.
+    step: usize,
+    /// Whether that step has begun (its stream began a refined frame of its own).
+    started: bool,
+    /// Steps the frame takes (known after its first pass).
+    steps: usize,
+    /// The object of the step the last pass stopped in: the one whose blocks are read.
+    object: usize,
+    /// Passes drawn.
+    passes: u32,
 }
 
 impl<'m, 'a> SceneStream<'m, 'a> {
@@ -325,7 +339,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
         Ok(Self {
             scene,
             objects,
-            first: 0,
+            refine: Refine::default(),
         })
     }
 
@@ -371,34 +385,41 @@ impl<'m, 'a> SceneStream<'m, 'a> {
 
     /// Starts a refined frame drawn in passes ([`SceneStream::render_pass`]).
     pub fn begin_refined(&mut self) {
-        self.first = 0;
-        self.objects
-            .iter_mut()
-            .for_each(ObjectStream::begin_refined);
+        self.refine = Refine::default();
     }
 
-    /// Draws the next pass of a refined frame into `sink` (colour and depth kept between passes):
-    /// the objects in the scene's order, each in its own passes ([`TgStream::render_pass`]), the
-    /// next begun only when one is finished, so that once [`SceneStream::refined_done`] the
-    /// framebuffer holds the frame of the pack opened whole. Without shadows.
+    /// Draws the next pass of a refined frame into `sink` (colour, depth and shadow map kept
+    /// between passes): the frame's steps in its own order (two-pass shadows: every casting
+    /// object's cast, [`TgStream::fill_pass`]; then every object drawn, [`TgStream::render_pass`]),
+    /// each in as many passes as its cache needs, the next begun only when one is finished, so
+    /// that once [`SceneStream::refined_done`] the framebuffer holds the frame of the pack opened
+    /// whole. Without shadows or with two-pass shadows; one-pass shadows visit siblings in light
+    /// order, which a pass cannot resume yet.
     ///
     /// # Errors
-    /// As [`SceneStream::render`]; [`SceneError::ShadowedPasses`] when `opts` ask for shadows.
+    /// As [`SceneStream::render`]; [`SceneError::ShadowedPasses`] for one-pass shadows.
     pub fn render_pass<S: SplatSink>(
         &mut self,
         camera: &Camera,
         opts: &RenderOptions,
+        shadow_depths: &mut [u16],
+        #[cfg(feature = "shadows")] light: Option<&mut LightFrame>,
         sink: &mut S,
     ) -> Result<SceneStats, SceneError> {
-        if opts.shadows != ShadowMode::Off {
+        if opts.shadows == ShadowMode::OnePass {
             return Err(SceneError::ShadowedPasses);
         }
+        let r = self.refine;
         let mut objects = Streams {
             streams: &mut self.objects,
             cast: [false; MAX_OBJECTS],
             pass: Some(Cursor {
-                first: self.first,
+                step: r.step,
+                started: r.started,
+                seen: 0,
                 stopped: false,
+                fresh: r.step == 0 && !r.started,
+                object: r.object,
             }),
         };
         let stats = render_objects(
@@ -406,25 +427,31 @@ impl<'m, 'a> SceneStream<'m, 'a> {
             &mut objects,
             camera,
             opts,
-            &mut [],
+            shadow_depths,
             #[cfg(feature = "shadows")]
-            None,
+            light,
             sink,
-        )?;
-        self.first = (self.first..self.objects.len())
-            .find(|&i| !self.objects[i].refined_done())
-            .unwrap_or(self.objects.len());
-        Ok(stats)
+        );
+        if let Some(c) = objects.pass {
+            self.refine = Refine {
+                step: c.step,
+                started: c.started,
+                steps: c.seen,
+                object: c.object,
+                passes: r.passes + 1,
+            };
+        }
+        stats
     }
 
     /// Whether the last [`SceneStream::render_pass`] finished the refined frame.
     pub fn refined_done(&self) -> bool {
-        self.first >= self.objects.len()
+        self.refine.passes > 0 && self.refine.step >= self.refine.steps
     }
 
-    /// Passes of the refined frame so far, over the objects.
+    /// Passes of the refined frame so far.
     pub fn passes(&self) -> u32 {
-        self.objects.iter().map(ObjectStream::passes).sum()
+        self.refine.passes
     }
 
     /// Whether the last frame missed nothing in any object.
@@ -491,7 +518,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
             .filter(|&i| missed[i])
             .chain((0..n).filter(|&i| !missed[i]));
         for i in order {
-            if refining && i != self.first {
+            if refining && i != self.refine.object {
                 continue;
             }
             let left = budget_bytes.saturating_sub(total.bytes);
@@ -510,13 +537,21 @@ impl<'m, 'a> SceneStream<'m, 'a> {
     }
 }
 
-/// Where a refined frame's pass is.
+/// Where a refined frame's pass is, step by step ([`Refine`]).
 #[derive(Clone, Copy, Debug)]
 struct Cursor {
-    /// Objects before it are finished.
-    first: usize,
-    /// An object's pass stopped at an absent block: nothing after it is drawn in this pass.
+    /// The first step not finished.
+    step: usize,
+    /// Whether it has begun.
+    started: bool,
+    /// Steps met so far in this pass's walk.
+    seen: usize,
+    /// A step's pass stopped at an absent block: nothing after it is done in this pass.
     stopped: bool,
+    /// This is the refined frame's first pass: the shadow map starts empty.
+    fresh: bool,
+    /// The object of the step being done.
+    object: usize,
 }
 
 /// The objects' streams as a scene frame reads them.
@@ -529,16 +564,57 @@ struct Streams<'o, 'a> {
     pass: Option<Cursor>,
 }
 
-impl Streams<'_, '_> {
-    /// Whether a pass draws nothing of object `i`: finished, or after the one that stopped.
-    fn skips(&self, i: usize) -> bool {
-        self.pass.is_some_and(|p| i < p.first || p.stopped)
+impl<'a> Streams<'_, 'a> {
+    /// In a pass, the walk's next step (a cast or a draw of object `i`): `None` when an earlier
+    /// pass finished it or this pass stopped before it; else whether it begins now (its stream
+    /// then begins a refined frame of its own).
+    fn step(&mut self, i: usize) -> Option<bool> {
+        let p = self.pass.as_mut()?;
+        let k = p.seen;
+        p.seen += 1;
+        if k < p.step || p.stopped {
+            return None;
+        }
+        p.object = i;
+        let begins = !p.started;
+        p.started = true;
+        Some(begins)
     }
 
-    /// Notes where a pass stopped.
-    fn passed(&mut self, done: bool) {
+    /// In a pass, object `i`'s tri-grid step: begun if it begins now, taken by `pass`, ended as
+    /// its stream says (nothing done when an earlier pass finished it or this one stopped before
+    /// it). `None` outside a pass.
+    fn grid_step<R: Default>(
+        &mut self,
+        i: usize,
+        pass: impl FnOnce(&mut TgStream<'a>) -> R,
+    ) -> Option<R> {
+        self.pass?;
+        let Some(begins) = self.step(i) else {
+            return Some(R::default());
+        };
+        let Some(ObjectStream::Grid(s)) = self.streams.get_mut(i) else {
+            self.stepped(true);
+            return Some(R::default());
+        };
+        if begins {
+            s.begin_refined();
+        }
+        let r = pass(s);
+        let done = s.refined_done();
+        self.stepped(done);
+        Some(r)
+    }
+
+    /// The step [`Streams::step`] gave ended its pass, `done` or stopped at an absent block.
+    fn stepped(&mut self, done: bool) {
         if let Some(p) = &mut self.pass {
-            p.stopped |= !done;
+            if done {
+                p.step += 1;
+                p.started = false;
+            } else {
+                p.stopped = true;
+            }
         }
     }
 }
@@ -546,9 +622,14 @@ impl Streams<'_, '_> {
 impl Objects for Streams<'_, '_> {
     fn grid_header(&self, i: usize) -> Option<Header> {
         match self.streams.get(i)? {
-            ObjectStream::Grid(s) if !self.skips(i) => Some(*s.header()),
-            _ => None,
+            ObjectStream::Grid(s) => Some(*s.header()),
+            #[cfg(feature = "qsplat")]
+            ObjectStream::QSplat(_) => None,
         }
+    }
+
+    fn fresh_map(&self) -> bool {
+        self.pass.is_none_or(|p| p.fresh)
     }
 
     fn draw_grid<S: SplatSink, H: ShadowHooks>(
@@ -558,16 +639,14 @@ impl Objects for Streams<'_, '_> {
         hooks: &mut H,
         sink: &mut S,
     ) -> Stats {
-        let (pass, cast) = (self.pass.is_some(), self.cast[i]);
+        if let Some(stats) = self.grid_step(i, |s| s.render_pass_with(frame, hooks, sink)) {
+            return stats;
+        }
+        let cast = self.cast[i];
         let Some(ObjectStream::Grid(s)) = self.streams.get_mut(i) else {
             return Stats::default();
         };
-        if pass {
-            let stats = s.render_pass(frame, sink);
-            let done = s.refined_done();
-            self.passed(done);
-            stats
-        } else if cast {
+        if cast {
             s.render_after_fill(frame, hooks, sink)
         } else {
             s.render_with(frame, hooks, sink)
@@ -575,6 +654,9 @@ impl Objects for Streams<'_, '_> {
     }
 
     fn cast_grid<H: ShadowHooks>(&mut self, i: usize, frame: &TgFrame, hooks: &mut H) -> u32 {
+        if let Some(nodes) = self.grid_step(i, |s| s.fill_pass(frame, hooks)) {
+            return nodes;
+        }
         let Some(ObjectStream::Grid(s)) = self.streams.get_mut(i) else {
             return 0;
         };
@@ -592,13 +674,20 @@ impl Objects for Streams<'_, '_> {
         range: crate::tg::frame::DepthRange,
         sink: &mut S,
     ) -> Option<Result<Stats, crate::frame::FrameError>> {
-        let skips = self.skips(i);
+        if !matches!(self.streams.get(i)?, ObjectStream::QSplat(_)) {
+            return None;
+        }
         let pass = self.pass.is_some();
+        let begins = match self.step(i) {
+            Some(b) => b,
+            None if pass => return Some(Ok(Stats::default())),
+            None => false,
+        };
         let ObjectStream::QSplat(s) = self.streams.get_mut(i)? else {
             return None;
         };
-        if skips {
-            return Some(Ok(Stats::default()));
+        if begins {
+            s.begin_refined();
         }
         let trees = s.trees().iter().copied();
         let mut frame = match crate::qs::QsFrame::of_trees(trees, &rec.placement, camera, opts) {
@@ -610,7 +699,7 @@ impl Objects for Streams<'_, '_> {
         Some(Ok(if pass {
             let stats = s.render_pass(&frame, &mut sink);
             let done = s.refined_done();
-            self.passed(done);
+            self.stepped(done);
             stats
         } else {
             s.render(&frame, &mut sink)
@@ -652,7 +741,14 @@ impl SceneStreamWalk<'_, '_, '_> {
 impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_> {
     fn walk<S: crate::splat::ColorSink>(&mut self, sink: &mut S) -> Stats {
         let r = if self.refined {
-            self.stream.render_pass(self.camera, self.options, sink)
+            self.stream.render_pass(
+                self.camera,
+                self.options,
+                self.map,
+                #[cfg(feature = "shadows")]
+                self.light.as_deref_mut(),
+                sink,
+            )
         } else {
             self.stream.render(
                 self.camera,

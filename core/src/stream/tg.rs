@@ -13,7 +13,7 @@ use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
 use super::serve::{
     clear_queue, first_absent, Feed, Phase, Request, ServeReport, StreamCounters, Verdict,
 };
-use super::{ChunkSource, PassSink, StreamError};
+use super::{ChunkSource, PassHooks, PassSink, StreamError};
 use crate::crc::crc32;
 use crate::frame::Walk;
 use crate::splat::{ColorSink, SplatSink, Stats};
@@ -385,20 +385,60 @@ impl<'a> TgStream<'a> {
     /// The walk never descends where resident blocks disagree (drawn coarser, as in
     /// [`TgStream::render`], and the frame does not converge).
     pub fn render_pass<S: SplatSink>(&mut self, frame: &TgFrame, sink: &mut S) -> Stats {
+        self.render_pass_with(frame, &mut NoShadows, sink)
+    }
+
+    /// [`TgStream::render_pass`] with shadow hooks whose order of visits is the slot order (no
+    /// [`ShadowHooks::ordered`] level: two-pass shadows' test, which fills nothing): their fills,
+    /// like the sink's splats, happen only while the pass draws.
+    pub fn render_pass_with<S: SplatSink, H: ShadowHooks>(
+        &mut self,
+        frame: &TgFrame,
+        hooks: &mut H,
+        sink: &mut S,
+    ) -> Stats {
         let drawing = Cell::new(true);
         let mut pass = PassSink {
             inner: sink,
             drawing: &drawing,
         };
+        let mut hooks = PassHooks {
+            inner: hooks,
+            drawing: &drawing,
+        };
         self.refine.passes += 1;
         self.walk(
             frame,
-            &mut NoShadows,
+            &mut hooks,
             &mut pass,
             Phase::Draw,
             &drawing,
             Pass::Draw,
         )
+    }
+
+    /// The next pass of a refined cast into a shadow map (two-pass shadows' light pass through a
+    /// cache smaller than what it reads), as [`TgStream::render_pass`] is of a frame: each pass
+    /// skips the subtrees earlier passes cast, casts until its first absent descent and then only
+    /// queues, so that once [`TgStream::refined_done`] the map holds what the resident file casts
+    /// (fills keep the nearer depth, so a cast's order does not matter). Returns nodes visited.
+    pub fn fill_pass<H: ShadowHooks>(&mut self, frame: &TgFrame, hooks: &mut H) -> u32 {
+        let drawing = Cell::new(true);
+        let mut hooks = PassHooks {
+            inner: hooks,
+            drawing: &drawing,
+        };
+        let mut sink = crate::splat::NullSink::default();
+        self.refine.passes += 1;
+        self.walk(
+            frame,
+            &mut hooks,
+            &mut sink,
+            Phase::Draw,
+            &drawing,
+            Pass::Cast,
+        )
+        .nodes_visited
     }
 
     /// Whether the last [`TgStream::render_pass`] finished its refined frame.

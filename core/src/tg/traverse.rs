@@ -800,6 +800,10 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
     /// A subtree seen only by the light: descend to the light's level of detail and let every
     /// sample there cast into the shadow map.
     fn cast_only(&mut self, level: u8, index: u32, mask: u32, first_child: u32, p: H::Pos) {
+        // A refined cast in passes skips what earlier passes cast (slot order is walk order here).
+        if D::STREAMED && self.data.skip(level, index) {
+            return;
+        }
         count!(self.stats.nodes_visited += 1);
         let l = usize::from(level);
         if level != self.frame.depth && !self.hooks.light_stop(l) {
