@@ -142,7 +142,7 @@ pub fn render_scene_stream<P: DepthTarget, L: Layer, const M: usize>(
     };
     #[cfg(not(feature = "shadows"))]
     let map: &mut [u16] = &mut [];
-    let mut walk = crate::stream::SceneStreamWalk {
+    let mut walk = SceneStreamWalk {
         stream,
         camera: &camera,
         options,
@@ -165,3 +165,70 @@ pub fn render_scene_stream<P: DepthTarget, L: Layer, const M: usize>(
         ..drawn
     })
 }
+
+/// The walk of a streamed scene's frame, for [`render_scene_stream`].
+#[cfg(feature = "scene")]
+mod scene_walk {
+    use super::*;
+
+    /// A streamed scene's frame ready to walk ([`crate::frame::Walk`]): a frame from what is resident
+    /// ([`SceneStream::render`](crate::stream::SceneStream::render)) or, `refined`, the next pass of a refined frame
+    /// ([`SceneStream::render_pass`](crate::stream::SceneStream::render_pass)). [`SceneStreamWalk::finish`] says what each object did.
+    pub(super) struct SceneStreamWalk<'w, 'm, 'a> {
+        /// The stream.
+        pub(super) stream: &'w mut crate::stream::SceneStream<'m, 'a>,
+        /// The camera, fitted to the target.
+        pub(super) camera: &'w Camera,
+        /// The options.
+        pub(super) options: &'w RenderOptions,
+        /// The shadow map's depths (empty without shadows).
+        pub(super) map: &'w mut [u16],
+        /// Where the light's tables are set (`None`: on the stack).
+        #[cfg(feature = "shadows")]
+        pub(super) light: Option<&'w mut crate::shadow::LightFrame>,
+        /// The next pass of a refined frame instead of a frame from what is resident.
+        pub(super) refined: bool,
+        /// What the walk did.
+        pub(super) result: Option<Result<crate::scene::SceneStats, crate::scene::SceneError>>,
+    }
+
+    impl SceneStreamWalk<'_, '_, '_> {
+        /// What the walk did, per object (empty counts if it never ran).
+        ///
+        /// # Errors
+        /// As the stream's frame or pass.
+        pub(super) fn finish(self) -> Result<crate::scene::SceneStats, crate::scene::SceneError> {
+            self.result
+                .unwrap_or(Ok(crate::scene::SceneStats::default()))
+        }
+    }
+
+    impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_> {
+        fn walk<S: crate::splat::ColorSink>(&mut self, sink: &mut S) -> crate::splat::Stats {
+            let r = if self.refined {
+                self.stream.render_pass(
+                    self.camera,
+                    self.options,
+                    self.map,
+                    #[cfg(feature = "shadows")]
+                    self.light.as_deref_mut(),
+                    sink,
+                )
+            } else {
+                self.stream.render(
+                    self.camera,
+                    self.options,
+                    self.map,
+                    #[cfg(feature = "shadows")]
+                    self.light.as_deref_mut(),
+                    sink,
+                )
+            };
+            let total = r.as_ref().map(|s| s.total).unwrap_or_default();
+            self.result = Some(r);
+            total
+        }
+    }
+}
+#[cfg(feature = "scene")]
+use scene_walk::SceneStreamWalk;
