@@ -225,7 +225,7 @@ pub fn render_scene_in<S: SplatSink>(
 /// each object through it, so both draw a scene by the same code (`render_objects`).
 pub(crate) trait Objects {
     /// Object `i`'s tri-grid header (`None`: not a tri-grid).
-    fn grid_header(&self, i: usize) -> Option<Header>;
+    fn grid_header(&self, i: usize) -> Option<&Header>;
     /// Whether this frame's shadow map starts empty (not for a refined frame's later passes,
     /// which add to what the earlier ones cast).
     #[cfg_attr(not(feature = "shadows"), allow(dead_code))]
@@ -265,8 +265,8 @@ pub(crate) trait Objects {
 pub(crate) struct Resident<'s, 'a>(pub &'s Scene<'a>);
 
 impl Objects for Resident<'_, '_> {
-    fn grid_header(&self, i: usize) -> Option<Header> {
-        self.0.grid(i).map(|g| *g.header())
+    fn grid_header(&self, i: usize) -> Option<&Header> {
+        self.0.grid(i).map(|g| g.header())
     }
     fn draw_grid<S: SplatSink, H: ShadowHooks>(
         &mut self,
@@ -303,28 +303,28 @@ impl Objects for Resident<'_, '_> {
 }
 
 /// Sets `frame` to object `i`'s tri-grid frame, its depth mapped over the scene's `range`, and
-/// returns whether object `i` is a tri-grid. One frame is set in place per object in turn
+/// returns its record when object `i` is a tri-grid. One frame is set in place per object in turn
 /// ([`TgFrame::set`]): nothing is copied out, and tables that repeat are kept.
-pub(crate) fn object_frame<O: Objects>(
-    scene: &Scene<'_>,
+pub(crate) fn object_frame<'a, O: Objects>(
+    scene: &Scene<'a>,
     objects: &O,
     i: usize,
     camera: &Camera,
     opts: &RenderOptions,
     range: DepthRange,
     frame: &mut TgFrame,
-) -> Result<Option<Header>, SceneError> {
+) -> Result<Option<ObjectRecord<'a>>, SceneError> {
     let (Some(header), Some(rec)) = (objects.grid_header(i), scene.pack().object(i)) else {
         return Ok(None);
     };
     frame
-        .set(&header, &rec.placement, camera, opts)
+        .set(header, &rec.placement, camera, opts)
         .map_err(|error| SceneError::Frame {
             object: i as u8,
             error,
         })?;
     frame.share_depth_range(range);
-    Ok(Some(header))
+    Ok(Some(rec))
 }
 
 /// One frame of `scene`, its objects' files read through `objects`, with the shadows `opts` ask
@@ -383,11 +383,13 @@ fn render_shadowed<O: Objects, S: SplatSink>(
     let two_pass = opts.shadows == ShadowMode::TwoPass;
     if two_pass {
         for i in 0..n {
-            let Some(rec) = scene.pack().object(i).filter(|r| r.casts_shadows) else {
+            if !scene.pack().object(i).is_some_and(|r| r.casts_shadows) {
                 continue;
-            };
-            if let Some(h) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? {
-                light.set_in_space(&h, &rec.placement, &space);
+            }
+            if let Some(rec) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? {
+                if let Some(h) = objects.grid_header(i) {
+                    light.set_in_space(h, &rec.placement, &space);
+                }
                 let mut fill = Fill::<false> {
                     light,
                     map: &mut map,
@@ -404,13 +406,12 @@ fn render_shadowed<O: Objects, S: SplatSink>(
             stats.objects[i] = st;
             continue;
         }
-        let Some(h) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? else {
+        let Some(rec) = object_frame(scene, objects, i, camera, opts, range, &mut frame)? else {
             continue;
         };
-        let Some(rec) = scene.pack().object(i) else {
-            continue;
-        };
-        light.set_in_space(&h, &rec.placement, &space);
+        if let Some(h) = objects.grid_header(i) {
+            light.set_in_space(h, &rec.placement, &space);
+        }
         let mut s = slotted(scene, i, sink);
         // One-pass: an object that casts nothing, or the last one drawn, only tests.
         let st = if two_pass || !rec.casts_shadows || k + 1 == n {
@@ -469,6 +470,10 @@ fn draw_qsplat<O: Objects, S: SplatSink>(
     range: DepthRange,
     sink: &mut S,
 ) -> Result<Option<Stats>, SceneError> {
+    // Most objects are tri-grids: their records are not read (nor their slot sink made) twice.
+    if scene.pack().kind(i) != Some(super::Kind::QSplat) {
+        return Ok(None);
+    }
     let Some(rec) = scene.pack().object(i) else {
         return Ok(None);
     };

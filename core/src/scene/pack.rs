@@ -674,6 +674,15 @@ impl<'a> Pack<'a> {
         u32_at(self.bytes, 16) as usize
     }
 
+    /// What object `i`'s file is (`None` beyond [`Pack::object_count`]), without reading the rest
+    /// of its record: a scene frame asks it of every object.
+    pub fn kind(&self, i: usize) -> Option<Kind> {
+        if i >= self.object_count() {
+            return None;
+        }
+        Kind::from_byte(u8_at(self.bytes, self.object_at(i) + 16))
+    }
+
     /// Object `i` (`None` beyond [`Pack::object_count`]).
     pub fn object(&self, i: usize) -> Option<ObjectRecord<'a>> {
         if i >= self.object_count() {

@@ -620,9 +620,9 @@ impl<'a> Streams<'_, 'a> {
 }
 
 impl Objects for Streams<'_, '_> {
-    fn grid_header(&self, i: usize) -> Option<Header> {
+    fn grid_header(&self, i: usize) -> Option<&Header> {
         match self.streams.get(i)? {
-            ObjectStream::Grid(s) => Some(*s.header()),
+            ObjectStream::Grid(s) => Some(s.header()),
             #[cfg(feature = "qsplat")]
             ObjectStream::QSplat(_) => None,
         }
