@@ -2,9 +2,8 @@
 //! in blocks through its share of the cache, from a file and from a FAT image through
 //! embedded-sdmmc (the HTTP leg is in `stream_http`). Every converged frame must be the frame of
 //! the pack opened whole, byte for byte (CRC of the framebuffer), with the pack's shadows
-//! (one-pass, two-pass, off) while the cache holds the frame, and without shadows or with two-pass
-//! shadows in passes through a cache smaller than the frame; one-pass shadows through such a
-//! cache end in an error that says why. Two packs: one generated here with a tri-grid ground, a generated tree and a
+//! (one-pass, two-pass, off), both while the cache holds the frame and in passes through a cache
+//! smaller than the frame. Two packs: one generated here with a tri-grid ground, a generated tree and a
 //! QSplat knot (always runs), and the Big Scene (`boards/sim/scenes/big.toml`, real scans).
 //!
 //! `cargo test -p pocketsplat-tests --test all stream_pack:: -- --nocapture` prints the figures.
@@ -161,13 +160,11 @@ fn check_file(name: &str, bytes: &[u8], views: &[View], cutoff_px: f32) {
         for mode in ShadowMode::ALL {
             let s = settings(view, mode, cutoff_px);
             let want = resident_crc(bytes, &s);
-            let mut caches = vec![16 << 20];
-            if mode != ShadowMode::OnePass {
-                // Passes: without shadows, and with two-pass shadows (the casts in passes first).
-                let need = needed_cache(&mut src, &s);
-                caches.extend([need, 2 * need]);
-            }
-            for cache in caches {
+            // Passes through the least cache and twice it: without shadows, with two-pass
+            // shadows (the casts in passes first) and with one-pass shadows (each object's walk
+            // resumed in light order).
+            let need = needed_cache(&mut src, &s);
+            for cache in [16 << 20, need, 2 * need] {
                 let (crc, out) = streamed(&mut src, &s, cache)
                     .unwrap_or_else(|e| panic!("{name} {view:?} {mode:?} {cache}: {e:#}"));
                 assert_eq!(
@@ -186,14 +183,11 @@ fn check_file(name: &str, bytes: &[u8], views: &[View], cutoff_px: f32) {
                     out.counters.bytes_read,
                     100.0 * out.counters.bytes_read as f64 / bytes.len() as f64
                 );
+                if cache == need {
+                    assert!(out.passes > 1, "{name} {view:?} {mode:?}: no passes");
+                }
             }
         }
-        // One-pass shadows through a cache the frame does not fit: passes cannot resume a walk in
-        // light order yet, and the error says so.
-        let s = settings(view, ShadowMode::OnePass, cutoff_px);
-        let need = needed_cache(&mut src, &settings(view, ShadowMode::Off, cutoff_px));
-        let err = format!("{:#}", streamed(&mut src, &s, need).unwrap_err());
-        assert!(err.contains("without one-pass shadows"), "{name}: {err}");
     }
 }
 
@@ -269,8 +263,8 @@ fn the_big_scene_streams_from_a_fat_image_through_embedded_sdmmc() {
 
 /// The Big Scene at the paper's scale (issue 31, item 3): `boards/sim/scenes/paper.toml` baked
 /// here (more than the paper's 11.0 M samples), on a FAT image as `SCENE.PAK`, streamed through
-/// embedded-sdmmc: the std view with one-pass shadows through 64 MB, and without shadows through
-/// 2 MB (passes), each the resident frame. `scripts/paper-scene` does the same for every view
+/// embedded-sdmmc: the std view with one-pass shadows through 64 MB, and in every shadow mode
+/// through 2 MB (passes), each the resident frame. `scripts/paper-scene` does the same for every view
 /// through the command line.
 #[test]
 fn the_paper_scale_big_scene_streams_from_a_fat_image() {
@@ -303,6 +297,7 @@ fn the_paper_scale_big_scene_streams_from_a_fat_image() {
         (ShadowMode::OnePass, 64 << 20),
         (ShadowMode::Off, 2 << 20),
         (ShadowMode::TwoPass, 2 << 20),
+        (ShadowMode::OnePass, 2 << 20),
     ] {
         let s = settings(view, mode, 1.0);
         let mut want = FrameBuffers::new();
@@ -328,8 +323,9 @@ fn the_paper_scale_big_scene_streams_from_a_fat_image() {
 /// blocks are absent they cast coarser, and the frame must not count as converged until those
 /// blocks are read. Close views with a 2048² map (casts stop at cells of one texel, deep in the
 /// files) and one block read per frame, so that the first frames lack what unseen casters need:
-/// every converged frame must be the resident one; and two-pass through the least cache, where
-/// the light pass is itself cast in passes (a later pass adding to what the earlier ones cast).
+/// every converged frame must be the resident one; and both through the least cache, where
+/// two-pass's light pass is itself cast in passes (a later pass adding to what the earlier ones
+/// cast) and one-pass's light-ordered walks resume where each pass stopped.
 #[test]
 fn a_frame_converges_only_once_what_it_casts_is_read() {
     let dir = tempfile::tempdir().unwrap();
@@ -361,13 +357,14 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
                 "{az} {el} {dist} {mode:?}: converged on other pixels"
             );
             checked += out.frames;
-            if mode == ShadowMode::TwoPass {
-                // Through the least cache: the light pass itself is cast in passes.
+            {
+                // Through the least cache: two-pass's light pass is itself cast in passes, and
+                // one-pass's walks resume in light order.
                 let need = needed_cache(&mut src, &s);
                 let (crc, out) = streamed(&mut src, &s, need).unwrap();
                 assert_eq!(
                     crc, want,
-                    "{az} {el} {dist} two-pass in passes: other pixels"
+                    "{az} {el} {dist} {mode:?} in passes: other pixels"
                 );
                 assert!(
                     out.passes > 1,

@@ -74,9 +74,6 @@ pub enum SceneError {
         /// The object.
         object: u8,
     },
-    /// A streamed scene's refined frame drawn in passes has no one-pass shadows (its frames from
-    /// what is resident do; passes draw two-pass shadows).
-    ShadowedPasses,
     /// An object is a QSplat file but this build has no QSplat reader (feature `qsplat`).
     NoQSplat {
         /// The object.
@@ -127,12 +124,6 @@ impl core::fmt::Display for SceneError {
             SceneError::StreamKind { object } => write!(
                 f,
                 "object {object}: its stream is not of the kind its record says"
-            ),
-            SceneError::ShadowedPasses => write!(
-                f,
-                "a streamed scene whose frame needs more blocks than the cache holds is drawn in \
-                 passes, without one-pass shadows: give a larger cache, or --shadows two-pass \
-                 or off"
             ),
             SceneError::NoQSplat { object } => write!(
                 f,

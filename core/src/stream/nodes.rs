@@ -80,6 +80,12 @@ pub(crate) struct PassState<'s> {
     pub drawing: &'s Cell<bool>,
     /// Where this pass resumes: cells before this path in walk order are skipped.
     pub resume: Refine,
+    /// Levels down to which the walk's position follows `resume.path`: the cell the walk is at
+    /// on level `on` has its parent on the path (0: the root's level).
+    pub on: u8,
+    /// Per level (bit), whether the walk has met the path's cell there: its later siblings come
+    /// after the path in walk order, whatever that order is (slot or light order).
+    pub met: u32,
     /// Per level, the last descent taken: (cell, its first child, its children).
     pub stack: [(u32, u32, u32); MAX_LEVELS],
     /// The level of the cell this pass stopped at (its first absent descent), with `path`.
@@ -638,7 +644,27 @@ impl NodeData for StreamNodes<'_, '_, '_> {
             Phase::Progressive => false,
             Phase::Done => true,
             Phase::Draw | Phase::Lookahead => match self.pass.resume.level {
-                Some(c) if level <= c => index < self.pass.resume.path[usize::from(level)],
+                Some(c) if level <= c => {
+                    // Walk order is slot order, or light order at one-pass shadows' ordered
+                    // levels (Duguet §5.3): not index order, so the walk itself says what came
+                    // first. A cell whose parent is off the path comes after it (a cell before
+                    // it was skipped whole); among the path's siblings, those met before the
+                    // path's own cell were drawn by earlier passes.
+                    let pass = &mut *self.pass;
+                    if pass.on < level {
+                        return false;
+                    }
+                    // (The path's cell may be asked about twice: a culled cell's own cast asks
+                    // again.)
+                    let bit = 1u32 << (level & 31);
+                    if index == pass.resume.path[usize::from(level)] {
+                        pass.met |= bit;
+                        pass.on = level + 1;
+                        return false;
+                    }
+                    pass.on = level;
+                    pass.met & bit == 0
+                }
                 _ => false,
             },
         }

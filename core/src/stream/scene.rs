@@ -25,7 +25,6 @@ use crate::frame::RenderOptions;
 use crate::scene::draw::{render_objects, Objects};
 use crate::scene::{Kind, MAX_META_BYTES, MAX_OBJECTS};
 use crate::scene::{ObjectFile, ObjectRecord, Pack, PackError, Scene, SceneError, SceneStats};
-use crate::shade::ShadowMode;
 #[cfg(feature = "shadows")]
 use crate::shadow::LightFrame;
 use crate::splat::{SplatSink, Stats};
@@ -393,11 +392,12 @@ impl<'m, 'a> SceneStream<'m, 'a> {
     /// object's cast, [`TgStream::fill_pass`]; then every object drawn, [`TgStream::render_pass`]),
     /// each in as many passes as its cache needs, the next begun only when one is finished, so
     /// that once [`SceneStream::refined_done`] the framebuffer holds the frame of the pack opened
-    /// whole. Without shadows or with two-pass shadows; one-pass shadows visit siblings in light
-    /// order, which a pass cannot resume yet.
+    /// whole. One-pass shadows' steps are the objects' draws in light order, each walk resumed
+    /// where its last pass stopped in its own (light) order, the map filled only while a pass
+    /// draws.
     ///
     /// # Errors
-    /// As [`SceneStream::render`]; [`SceneError::ShadowedPasses`] for one-pass shadows.
+    /// As [`SceneStream::render`].
     pub fn render_pass<S: SplatSink>(
         &mut self,
         camera: &Camera,
@@ -406,9 +406,6 @@ impl<'m, 'a> SceneStream<'m, 'a> {
         #[cfg(feature = "shadows")] light: Option<&mut LightFrame>,
         sink: &mut S,
     ) -> Result<SceneStats, SceneError> {
-        if opts.shadows == ShadowMode::OnePass {
-            return Err(SceneError::ShadowedPasses);
-        }
         let r = self.refine;
         let mut objects = Streams {
             streams: &mut self.objects,

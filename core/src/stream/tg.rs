@@ -388,9 +388,11 @@ impl<'a> TgStream<'a> {
         self.render_pass_with(frame, &mut NoShadows, sink)
     }
 
-    /// [`TgStream::render_pass`] with shadow hooks whose order of visits is the slot order (no
-    /// [`ShadowHooks::ordered`] level: two-pass shadows' test, which fills nothing): their fills,
-    /// like the sink's splats, happen only while the pass draws.
+    /// [`TgStream::render_pass`] with shadow hooks: two-pass shadows' test, or one-pass shadows,
+    /// whose [`ShadowHooks::ordered`] levels visit siblings in light order (a pass resumes in
+    /// the walk's own order, `StreamNodes::skip`). Their fills, like the sink's splats, happen
+    /// only while the pass draws, so that the passes together fill and test in the resident
+    /// walk's sequence.
     pub fn render_pass_with<S: SplatSink, H: ShadowHooks>(
         &mut self,
         frame: &TgFrame,
@@ -507,6 +509,8 @@ impl<'a> TgStream<'a> {
             },
             drawing,
             resume: self.refine,
+            on: 0,
+            met: 0,
             stack: [(0, 0, 0); MAX_LEVELS],
             stop: None,
             path: [0; MAX_LEVELS],
