@@ -4,6 +4,9 @@
 //! - `POCKETSPLAT_PDA_PANEL=WxH` (default `240x320`) sets the panel the frames are drawn for: the
 //!   lib's `WIDTH` and `HEIGHT`, the size of the firmware's colour and depth buffers (the projection
 //!   follows them).
+//! - `POCKETSPLAT_PDA_BANDS=N` (default 1) draws a scene's frame in `N` horizontal bands
+//!   (`BANDS`, `BAND_ROWS`; `N` divides the height), as a board with less RAM than a frame's
+//!   colour and depth would.
 //! - `-Tlink.x` (cortex-m-rt's script, which includes the workspace's `memory.x`) is passed with
 //!   `rustc-link-arg-bins`, and only when the target is bare-metal ARM: host builds of this package and
 //!   every other crate of the workspace never see it (docs/ARCHITECTURE.md, Conventions 2).
@@ -77,12 +80,28 @@ fn panel() {
             "{VAR}={text}: want WIDTHxHEIGHT with each side from 16 to 1024 pixels, e.g. 320x240"
         );
     };
+    const BANDS: &str = "POCKETSPLAT_PDA_BANDS";
+    println!("cargo:rerun-if-env-changed={BANDS}");
+    let text = env::var(BANDS).unwrap_or_else(|_| "1".to_owned());
+    let bands = text
+        .trim()
+        .parse::<u32>()
+        .ok()
+        .filter(|&n| n >= 1 && height % n == 0);
+    let Some(bands) = bands else {
+        panic!("{BANDS}={text}: want a number of bands that divides the panel's {height} rows");
+    };
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join("panel.rs");
+    let rows = height / bands;
     let src = format!(
         "/// Panel width, pixels (`{VAR}` at build time; 240 by default).\n\
          pub const WIDTH: usize = {width};\n\
          /// Panel height, pixels (`{VAR}` at build time; 320 by default).\n\
-         pub const HEIGHT: usize = {height};\n"
+         pub const HEIGHT: usize = {height};\n\
+         /// Bands a scene's frame is drawn in (`{BANDS}` at build time; 1 by default).\n\
+         pub const BANDS: usize = {bands};\n\
+         /// Rows of a band: the height of a scene's colour and depth buffers.\n\
+         pub const BAND_ROWS: usize = {rows};\n"
     );
     std::fs::write(&out, src).unwrap_or_else(|e| panic!("{}: {e}", out.display()));
 }

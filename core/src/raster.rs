@@ -275,6 +275,75 @@ impl<const W: usize, const H: usize> DepthTarget for Framebuffer<'_, W, H> {
     }
 }
 
+/// Rows `top..top + h` of an image of `full`'s size, drawn into a target `h` rows high: a band of
+/// the frame, which a device with less RAM than a whole frame's colour and depth draws and sends to
+/// the panel before drawing the next (issue 31, the 520 KB handheld).
+///
+/// The walk is the whole frame's (the same culling, levels of detail and, with one-pass shadows,
+/// the same fills of the map in the same order); only the pixels outside the band are dropped. The
+/// bands of a frame, put together, are therefore that frame bit for bit, whatever the shadows; a
+/// frame in `n` bands costs `n` walks and one frame's pixels.
+pub struct Band<T> {
+    inner: T,
+    top: usize,
+    rows: usize,
+    full: Viewport,
+}
+
+impl<T: DepthTarget> Band<T> {
+    /// Rows `top..` of an image of `full`'s size into `inner` (as many rows as it has), or `None`
+    /// when `inner` is not as wide as the image or reaches past its last row.
+    pub fn new(inner: T, top: u16, full: Viewport) -> Option<Self> {
+        let v = inner.viewport();
+        if v.width != full.width || u32::from(top) + u32::from(v.height) > u32::from(full.height) {
+            return None;
+        }
+        Some(Self {
+            rows: usize::from(v.height),
+            top: usize::from(top),
+            inner,
+            full,
+        })
+    }
+
+    /// The band's own target.
+    pub fn inner(&self) -> &T {
+        &self.inner
+    }
+
+    /// The band's own target, given back.
+    pub fn into_inner(self) -> T {
+        self.inner
+    }
+}
+
+impl<T: DepthTarget> DepthTarget for Band<T> {
+    #[inline(always)]
+    fn viewport(&self) -> Viewport {
+        self.full
+    }
+
+    fn clear(&mut self, background: u16) {
+        self.inner.clear(background);
+    }
+
+    #[inline(always)]
+    fn put(&mut self, x: usize, y: usize, depth: u16, color: impl FnOnce() -> u16) -> u32 {
+        match y.checked_sub(self.top) {
+            Some(r) if r < self.rows => self.inner.put(x, r, depth, color),
+            _ => 0,
+        }
+    }
+
+    #[inline(always)]
+    fn put_span(&mut self, y: usize, x0: usize, x1: usize, depth: u16, color: u16) -> u32 {
+        match y.checked_sub(self.top) {
+            Some(r) if r < self.rows => self.inner.put_span(r, x0, x1, depth, color),
+            _ => 0,
+        }
+    }
+}
+
 /// CRC-32 of RGB565 pixels, little-endian, in order: the frame checksum host and firmware compare.
 pub fn crc565(pixels: &[u16]) -> u32 {
     let mut c = crate::crc::Crc32::new();

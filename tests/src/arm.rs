@@ -24,12 +24,12 @@ use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::tg::write::{write_tg_as, Layout};
 use pocketsplat_qemu::scene::{
-    render_scene_view, scene_frame_specs, SceneFrameReport, SceneFrameSpec, SceneTable,
+    render_scene_bands, scene_frame_specs, SceneFrameReport, SceneFrameSpec, SceneTable,
     SceneTargets, SCENE_MAP_SIZE,
 };
 use pocketsplat_qemu::{
     render_standard_view, render_view, FrameLine, FrameReport, FrameSpec, Model, Phase, Shadows,
-    Targets, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
+    Targets, BAND_ROWS, HEIGHT, SHADOW_MAP_SIZE, WIDTH,
 };
 
 use crate::elf::{Elf, Memory};
@@ -590,14 +590,28 @@ impl HostSceneFrames {
         scene: &Scene<'p>,
         spec: SceneFrameSpec,
     ) -> Result<SceneFrameReport<'p>> {
+        let (band_color, _) = self.color.split_at_mut(BAND_ROWS);
+        let (band_depth, _) = self.depth.split_at_mut(BAND_ROWS);
+        let mut band = vec![[0u16; WIDTH]; HEIGHT];
         let mut targets = SceneTargets {
-            color: &mut self.color,
-            depth: &mut self.depth,
+            color: band_color.try_into().expect("BAND_ROWS rows"),
+            depth: band_depth.try_into().expect("BAND_ROWS rows"),
             table: &mut self.table,
             shadow: &mut self.shadow,
             light: &mut self.light,
         };
-        Ok(render_scene_view(scene, spec, &mut targets, |_| {})?)
+        // The bands put together (the firmware sends them to the panel instead).
+        let report = render_scene_bands(
+            scene,
+            spec,
+            &mut targets,
+            |_| {},
+            |top, rows| {
+                band[top..top + BAND_ROWS].copy_from_slice(rows);
+            },
+        )?;
+        self.color.copy_from_slice(&band);
+        Ok(report)
     }
 
     /// The colour rows of the last frame.

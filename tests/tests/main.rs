@@ -3,6 +3,7 @@
 //! file linked alone re-instantiated the core's generic renderer at opt-level 2, which was most of
 //! CI's build time; one binary builds it once and runs the QEMU legs beside the host tests.
 
+mod bands;
 mod example_model;
 mod golden;
 mod hostile_bricks;

@@ -358,6 +358,7 @@ fn the_big_scene_streams_from_nginx_to_the_resident_png() {
         (None, 16 << 20),
         (Some(ShadowMode::Off), 512 << 10),
         (Some(ShadowMode::TwoPass), 512 << 10),
+        (Some(ShadowMode::OnePass), 512 << 10),
     ] {
         let args = PackArgs {
             view: "std".into(),
@@ -368,6 +369,8 @@ fn the_big_scene_streams_from_nginx_to_the_resident_png() {
             shadows,
             color_by_level: false,
             size: pocketsplat_core::camera::Viewport::default(),
+            bands: 1,
+            shadow_map_size: None,
         };
         let want = root.path().join("want.png");
         render_pack_file(&local, &want, &args).unwrap();

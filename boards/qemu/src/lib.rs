@@ -125,7 +125,7 @@ const LIGHTS: [(i32, i32); 8] = [
 const LIGHT_Z: i32 = 181;
 
 /// Base colours of the sphere's latitude bands (a stand-in for materials).
-const BANDS: [(i32, i32, i32); 6] = [
+const LATITUDES: [(i32, i32, i32); 6] = [
     (230, 80, 60),
     (240, 180, 60),
     (90, 200, 90),
@@ -167,8 +167,8 @@ fn sphere_pixel(x: i32, y: i32, lx: i32, ly: i32) -> Option<u16> {
     for _ in 0..4 {
         spec = spec * spec / 256;
     }
-    let band = ((dy + SPHERE_R) * BANDS.len() as i32 / (2 * SPHERE_R + 1)) as usize;
-    let (r, g, b) = BANDS[band];
+    let band = ((dy + SPHERE_R) * LATITUDES.len() as i32 / (2 * SPHERE_R + 1)) as usize;
+    let (r, g, b) = LATITUDES[band];
     let shade = |c: i32| (c * intensity / 256 + spec).clamp(0, 255) as u8;
     Some(rgb565(shade(r), shade(g), shade(b)))
 }

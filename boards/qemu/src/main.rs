@@ -68,10 +68,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let pack = pocketsplat_core::scene::Pack::open(&bytes)?;
         let scene = pocketsplat_core::scene::Scene::open(pack, Verify::Structure)?;
-        let (mut depth, mut table) = (rows(), Box::new(SceneTable::new()));
+        let mut table = Box::new(SceneTable::new());
         let mut shadow = vec![0u16; SCENE_MAP_SIZE * SCENE_MAP_SIZE];
         #[cfg(feature = "shadows")]
         let mut light = Box::new(pocketsplat_core::shadow::LightFrame::UNSET);
+        let band_rows = || -> Box<[[u16; WIDTH]; pocketsplat_qemu::BAND_ROWS]> {
+            vec![[0u16; WIDTH]; pocketsplat_qemu::BAND_ROWS]
+                .into_boxed_slice()
+                .try_into()
+                .expect("BAND_ROWS rows")
+        };
+        let (mut color, mut depth) = (band_rows(), band_rows());
         let mut targets = SceneTargets {
             color: &mut color,
             depth: &mut depth,

@@ -15,7 +15,8 @@
 
 use core::fmt;
 
-use pocketsplat_core::raster::Framebuffer;
+use pocketsplat_core::crc::Crc32;
+use pocketsplat_core::raster::{Band, Framebuffer};
 use pocketsplat_core::render::{render_scene_marked, Direct, Target};
 use pocketsplat_core::scene::{Scene, MAX_SLOTS};
 use pocketsplat_core::shade::ShadingTable;
@@ -23,7 +24,7 @@ use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::splat::Stats;
 
-use crate::{Phase, RenderError, Shadows, HEIGHT, WIDTH};
+use crate::{Phase, RenderError, Shadows, BANDS, BAND_ROWS, WIDTH};
 
 /// LOD cutoffs the firmware renders each view of a pack at, pixels, finest first (the first is the
 /// reference the coarser frames' PSNR is measured against). 3 and 6 px are there so that a curve
@@ -47,10 +48,11 @@ pub fn is_pack(bytes: &[u8]) -> bool {
 
 /// Where a frame of a scene is drawn (statics on the device, the heap on the host).
 pub struct SceneTargets<'a> {
-    /// RGB565 rows.
-    pub color: &'a mut [[u16; WIDTH]; HEIGHT],
-    /// Depth rows.
-    pub depth: &'a mut [[u16; WIDTH]; HEIGHT],
+    /// RGB565 rows of a band ([`crate::BAND_ROWS`]: the whole panel unless the build draws in
+    /// bands).
+    pub color: &'a mut [[u16; WIDTH]; BAND_ROWS],
+    /// Depth rows of a band.
+    pub depth: &'a mut [[u16; WIDTH]; BAND_ROWS],
     /// The shading table, kept between frames (slots rebuilt only when their directions change).
     pub table: &'a mut SceneTable,
     /// Shadow-map depths: at least the pack's map side² when it has shadows (may be empty
@@ -154,25 +156,62 @@ pub fn render_scene_view<'p>(
     targets: &mut SceneTargets<'_>,
     mark: impl FnMut(Phase),
 ) -> Result<SceneFrameReport<'p>, SceneViewError> {
+    render_scene_bands(scene, spec, targets, mark, |_, _| {})
+}
+
+/// [`render_scene_view`], handing each band's colour rows to `band` with the panel row it starts
+/// at, in order, as they are drawn (what a board sends to its panel; the host puts the frame
+/// together from them).
+///
+/// # Errors
+/// As [`render_scene_view`].
+pub fn render_scene_bands<'p>(
+    scene: &Scene<'p>,
+    spec: SceneFrameSpec,
+    targets: &mut SceneTargets<'_>,
+    mark: impl FnMut(Phase),
+    mut band_rows: impl FnMut(usize, &[[u16; WIDTH]; BAND_ROWS]),
+) -> Result<SceneFrameReport<'p>, SceneViewError> {
     let (view_name, view) = scene
         .pack()
         .view(spec.view)
         .ok_or(SceneViewError::NoView(spec.view))?;
     let options = scene.options().with_cutoff(f32::from(spec.cutoff_px));
     let camera = scene.camera(view);
-    let target = Target::new(
-        Framebuffer::new(targets.color, targets.depth),
-        targets.table,
-    );
-    #[cfg(feature = "shadows")]
-    let target = target.with_shadows(targets.shadow, targets.light);
-    let mut target = target;
-    let drawn = render_scene_marked(scene, &camera, &options, &mut target, &mut Direct, mark)?;
+    // The frame band by band ([`Band`]: each band's walk is the whole frame's, its pixels
+    // dropped outside the band), the CRC over the bands' rows in order: the whole frame's CRC.
+    // The markers see one frame: the first band's set-up, table and clear, the rest in its
+    // traversal, the last band's end.
+    let mut mark = mark;
+    let mut crc = Crc32::new();
+    let mut first = None;
+    for band in 0..BANDS {
+        let pixels = Band::new(
+            Framebuffer::new(&mut *targets.color, &mut *targets.depth),
+            (band * BAND_ROWS) as u16,
+            crate::PANEL,
+        )
+        .expect("BANDS bands of BAND_ROWS rows are the panel (build.rs)");
+        let target = Target::new(pixels, &mut *targets.table);
+        #[cfg(feature = "shadows")]
+        let target = target.with_shadows(&mut *targets.shadow, &mut *targets.light);
+        let mut target = target;
+        let (head, tail) = (band == 0, band + 1 == BANDS);
+        let drawn = render_scene_marked(scene, &camera, &options, &mut target, &mut Direct, |p| {
+            if (head && p != Phase::End) || (tail && p == Phase::End) {
+                mark(p);
+            }
+        })?;
+        crc.update_u16_le(targets.color.as_flattened());
+        band_rows(band * BAND_ROWS, targets.color);
+        first.get_or_insert(drawn);
+    }
+    let drawn = first.expect("a frame has a band");
     Ok(SceneFrameReport {
         view_name,
         spec,
         shadows: drawn.shadows,
-        crc: target.pixels.crc(),
+        crc: crc.finish(),
         stats: drawn.stats,
         table_rebuilt: drawn.table_rebuilt,
     })

@@ -13,7 +13,7 @@ use embedded_graphics::prelude::*;
 use embedded_graphics::primitives::Rectangle;
 use pocketsplat_core::camera::{self, Camera, Sphere, View, Viewport, DEFAULT_FOV_DEG};
 use pocketsplat_core::normal::{NORMALS_Q14, NORMAL_COUNT};
-use pocketsplat_core::raster::{crc565, draw_splat, DisplayTarget, Kernel, Splat, DEPTH_FAR};
+use pocketsplat_core::raster::{crc565, draw_splat, Band, DisplayTarget, Kernel, Splat, DEPTH_FAR};
 use pocketsplat_core::render::{render_marked, Layer, Model, Phase, RenderOptions, Target, Walk};
 use pocketsplat_core::scene::SceneStats;
 use pocketsplat_core::shade::{Material, ShadingTable, DEFAULT_LIGHT_AZ_EL, DEFAULT_MATERIAL};
@@ -110,6 +110,8 @@ pub struct FrameBuffers {
     /// Shadow-map depths, allocated on first use.
     shadow: Vec<u16>,
     light: Box<LightFrame>,
+    /// Horizontal bands a frame is drawn in ([`FrameBuffers::in_bands`]; 1: whole).
+    bands: u16,
 }
 
 impl Default for FrameBuffers {
@@ -131,7 +133,24 @@ impl FrameBuffers {
             depth: vec![DEPTH_FAR; viewport.pixels()],
             shadow: Vec::new(),
             light: Box::new(LightFrame::UNSET),
+            bands: 1,
         }
+    }
+
+    /// Frames drawn into these buffers are drawn as the handheld draws them: in `bands`
+    /// horizontal bands (at least 1, at most one per row), each into buffers of its own rows
+    /// through [`pocketsplat_core::raster::Band`] and then copied here. The frame is the same,
+    /// bit for bit; what changes is the RAM a device needs (a band's colour and depth) and the
+    /// work (a walk per band).
+    #[must_use]
+    pub fn in_bands(mut self, bands: u16) -> Self {
+        self.bands = bands.clamp(1, self.viewport().height);
+        self
+    }
+
+    /// Rows of each band but perhaps the last (fewer there).
+    pub fn band_rows(&self) -> u16 {
+        self.viewport().height.div_ceil(self.bands)
     }
 
     /// The frame's size.
@@ -178,14 +197,29 @@ impl FrameBuffers {
     ) -> Target<'t, DisplayTarget<'t, Image>, M> {
         let pixels =
             DisplayTarget::new(&mut self.image, &mut self.depth).expect("a depth value per pixel");
-        let target = Target::new(pixels, table);
+        Self::shadowed(
+            Target::new(pixels, table),
+            &mut self.shadow,
+            &mut self.light,
+            shadow_side,
+        )
+    }
+
+    /// `target` with a shadow map of `shadow_side`² depths in `shadow` (grown on first use) and
+    /// `light`, when the frame asks for shadows.
+    fn shadowed<'t, P: pocketsplat_core::raster::DepthTarget, const M: usize>(
+        target: Target<'t, P, M>,
+        shadow: &'t mut Vec<u16>,
+        light: &'t mut LightFrame,
+        shadow_side: Option<usize>,
+    ) -> Target<'t, P, M> {
         match shadow_side {
             Some(side) => {
                 let need = side.saturating_mul(side);
-                if self.shadow.len() < need {
-                    self.shadow.resize(need, u16::MAX);
+                if shadow.len() < need {
+                    shadow.resize(need, u16::MAX);
                 }
-                target.with_shadows(&mut self.shadow, &mut self.light)
+                target.with_shadows(shadow, light)
             }
             None => target,
         }
@@ -222,6 +256,9 @@ pub struct Settings {
     pub color_by_level: bool,
     /// The frame's size (`--size`): the buffers' size, which the projection follows.
     pub size: Viewport,
+    /// Horizontal bands the frame is drawn in (`--bands`, [`FrameBuffers::in_bands`]): the same
+    /// frame, drawn as a device with a band's colour and depth draws it.
+    pub bands: u16,
 }
 
 impl Default for Settings {
@@ -238,6 +275,7 @@ impl Default for Settings {
             shadow_map_size: DEFAULT_SHADOW_MAP_SIZE,
             color_by_level: false,
             size: Viewport::DEFAULT,
+            bands: 1,
         }
     }
 }
@@ -269,7 +307,7 @@ impl Settings {
 
     /// Buffers for a frame of [`Settings::size`].
     pub fn buffers(&self) -> FrameBuffers {
-        FrameBuffers::sized(self.size)
+        FrameBuffers::sized(self.size).in_bands(self.bands)
     }
     /// Unit direction to the light (for a point light, from the bounding-sphere centre).
     pub fn light_dir(&self) -> [f64; 3] {
@@ -420,24 +458,29 @@ pub fn render_from<const M: usize>(
     let shadow_side = (options.shadows != ShadowMode::Off).then_some(options.shadow_map_size);
     let t = Instant::now();
     let (mut clear_at, mut clear_time) = (None, Duration::ZERO);
-    let drawn = {
-        let mut target = out.target(table, shadow_side);
-        render_marked(
+    let mut mark = |phase| match phase {
+        Phase::Clear => clear_at = Some(Instant::now()),
+        Phase::Traverse => {
+            if let Some(c) = clear_at {
+                clear_time += c.elapsed();
+            }
+        }
+        _ => {}
+    };
+    let drawn = if out.bands > 1 {
+        render_bands(
             model,
             cam,
             options,
-            &mut target,
+            table,
+            out,
             layer,
-            |phase| match phase {
-                Phase::Clear => clear_at = Some(Instant::now()),
-                Phase::Traverse => {
-                    if let Some(c) = clear_at {
-                        clear_time = c.elapsed();
-                    }
-                }
-                _ => {}
-            },
+            shadow_side,
+            &mut mark,
         )
+    } else {
+        let mut target = out.target(table, shadow_side);
+        render_marked(model, cam, options, &mut target, layer, &mut mark)
     }
     .map_err(|e| anyhow::anyhow!("{e}"))?;
     let report = FrameReport {
@@ -447,6 +490,56 @@ pub fn render_from<const M: usize>(
     };
     overlay(&mut out.image, &report);
     Ok(report)
+}
+
+/// [`render_marked`] in `out`'s bands ([`FrameBuffers::in_bands`]): each band drawn into buffers
+/// of its own rows (the shadow map and light frame lent from `out`), then copied into `out`. The
+/// counts are the first band's walk (every band's walk is the same walk).
+#[allow(clippy::too_many_arguments)]
+fn render_bands<const M: usize>(
+    model: &Model<'_>,
+    cam: &Camera,
+    options: &RenderOptions,
+    table: &mut ShadingTable<M>,
+    out: &mut FrameBuffers,
+    layer: &mut impl Layer,
+    shadow_side: Option<usize>,
+    mark: &mut impl FnMut(Phase),
+) -> Result<pocketsplat_core::render::Drawn, pocketsplat_core::render::RenderError> {
+    let full = out.viewport();
+    let rows = out.band_rows();
+    let width = usize::from(full.width);
+    let mut first = None;
+    let mut top = 0u16;
+    while top < full.height {
+        let h = rows.min(full.height - top);
+        let mut part = FrameBuffers::sized(
+            Viewport::new(u32::from(full.width), u32::from(h)).expect("a band of a valid frame"),
+        );
+        std::mem::swap(&mut part.shadow, &mut out.shadow);
+        std::mem::swap(&mut part.light, &mut out.light);
+        let drawn = {
+            let pixels = DisplayTarget::new(&mut part.image, &mut part.depth)
+                .expect("a depth value per pixel");
+            let band = Band::new(pixels, top, full).expect("the band lies in the frame");
+            let mut target = FrameBuffers::shadowed(
+                Target::new(band, &mut *table),
+                &mut part.shadow,
+                &mut part.light,
+                shadow_side,
+            );
+            render_marked(model, cam, options, &mut target, layer, &mut *mark)
+        };
+        std::mem::swap(&mut part.shadow, &mut out.shadow);
+        std::mem::swap(&mut part.light, &mut out.light);
+        let drawn = drawn?;
+        let at = usize::from(top) * width..(usize::from(top) + usize::from(h)) * width;
+        out.image.pixels[at.clone()].copy_from_slice(part.image.pixels());
+        out.depth[at].copy_from_slice(&part.depth);
+        first.get_or_insert(drawn);
+        top += h;
+    }
+    Ok(first.expect("a frame has a row"))
 }
 
 /// Renders one frame of `model` from `cam` as `settings` say (their options; colour by resolution

@@ -165,6 +165,10 @@ pub struct PackArgs {
     pub color_by_level: bool,
     /// The frame's size.
     pub size: Viewport,
+    /// Horizontal bands the frame is drawn in ([`FrameBuffers::in_bands`]).
+    pub bands: u16,
+    /// Shadow-map side, texels.
+    pub shadow_map_size: Option<usize>,
 }
 
 impl PackArgs {
@@ -180,6 +184,7 @@ impl PackArgs {
         settings.shadows = self.shadows;
         settings.light_az_el = self.light_az_el;
         settings.color_by_level = self.color_by_level;
+        settings.shadow_map_size = self.shadow_map_size;
         Ok(settings)
     }
 }
@@ -193,7 +198,7 @@ pub fn render_pack_file(input: &Path, out: &Path, args: &PackArgs) -> Result<Sna
     let scene = input::open_pack(input, &bytes)?;
     let pack = scene.pack();
     let settings = args.settings(pack)?;
-    let mut fb = FrameBuffers::sized(args.size);
+    let mut fb = FrameBuffers::sized(args.size).in_bands(args.bands);
     let frame = render_pack(&scene, &settings, &mut fb)?;
     write_frame(out, &mut fb, args.color_by_level)?;
     let mut v = stats_json(&frame.stats.total);

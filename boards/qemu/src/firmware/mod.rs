@@ -60,9 +60,12 @@ fn main() -> ! {
 
     #[cfg(all(feature = "model", feature = "scene"))]
     if pocketsplat_qemu::scene::is_pack(&run::model::MODEL) {
+        // A scene is drawn in bands of BAND_ROWS rows (all of them unless the build says
+        // otherwise): the first rows of the buffers.
+        let band = pocketsplat_qemu::BAND_ROWS;
         run::render_pack(pocketsplat_qemu::scene::SceneTargets {
-            color: COLOR,
-            depth: DEPTH,
+            color: (&mut COLOR[..band]).try_into().expect("BAND_ROWS rows"),
+            depth: (&mut DEPTH[..band]).try_into().expect("BAND_ROWS rows"),
             table: SCENE_TABLE,
             shadow: SCENE_SHADOW,
             // The single model's light frame: a pack run never renders one.

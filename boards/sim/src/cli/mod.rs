@@ -51,6 +51,15 @@ pub struct FrameArgs {
     /// projection follows it, keeping the vertical field of view.
     #[arg(long, default_value = "240x320", value_name = "WxH", value_parser = args::frame_size)]
     pub size: Viewport,
+    /// Draw the frame in N horizontal bands, each with a band's colour and depth buffers (what a
+    /// device with less RAM than a whole frame does, e.g. the 520 KB handheld with a scene): the
+    /// same frame, bit for bit, for N walks of the model.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = args::int::<u16>(1, 2048))]
+    pub bands: u16,
+    /// Shadow-map side in texels (a scene pack's own otherwise; 256 for a model): a smaller map
+    /// is less RAM and softer, coarser shadows.
+    #[arg(long, value_name = "SIDE", value_parser = args::int::<usize>(16, 4096))]
+    pub shadow_map: Option<usize>,
 }
 
 impl FrameArgs {
@@ -68,6 +77,10 @@ impl FrameArgs {
             shadows: self.shadows,
             color_by_level,
             size: self.size,
+            bands: self.bands,
+            shadow_map_size: self
+                .shadow_map
+                .unwrap_or(pocketsplat_sim::render::DEFAULT_SHADOW_MAP_SIZE),
             ..Settings::default()
         })
     }

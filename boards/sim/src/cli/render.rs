@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use pocketsplat_sim::args;
@@ -95,6 +95,12 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
         ..StreamOptions::default()
     };
     let sd_image = args.stream.sd_image.as_deref();
+    if args.stream.stream && args.frame.bands > 1 {
+        bail!(
+            "--bands {}: a streamed frame is drawn whole (bands are for resident frames so far)",
+            args.frame.bands
+        );
+    }
     if is_pack_input(input, args.stream.stream, sd_image.is_some()) {
         // A pack brings its own light, shadows and field of view: flags left out keep them.
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
@@ -108,6 +114,8 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
             shadows: given("shadows").then_some(f.shadows),
             color_by_level: args.color_by_level,
             size: f.size,
+            bands: f.bands,
+            shadow_map_size: f.shadow_map,
         };
         if args.stream.stream {
             let input = input.to_string_lossy();

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
-use pocketsplat_core::camera::{self, Camera, Sphere, View};
+use pocketsplat_core::camera::{self, Camera, Sphere, View, Viewport};
 use pocketsplat_core::raster::Kernel;
 use pocketsplat_core::render::{Model, RenderOptions};
 use pocketsplat_core::scene::{ram_budget, RamBudget, Scene, SceneStats, ShadowMode};
@@ -154,6 +154,9 @@ pub fn render_pack_from(
         None => Layers::Direct,
     };
     let mut frame = None;
+    // What a device holds of the frame: a band's rows when it is drawn in bands.
+    let band = Viewport::new(u32::from(out.viewport().width), u32::from(out.band_rows()))
+        .expect("a band of a valid frame");
     render_from(
         &model,
         camera,
@@ -166,23 +169,13 @@ pub fn render_pack_from(
             let f = SceneFrame {
                 stats,
                 time: report.time,
-                ram: ram_budget(
-                    scene.pack(),
-                    stats.shadows,
-                    opts.shadow_map_size,
-                    out_viewport(image),
-                ),
+                ram: ram_budget(scene.pack(), stats.shadows, opts.shadow_map_size, band),
             };
             overlay(image, &f);
             frame = Some(f);
         },
     )?;
     frame.ok_or_else(|| anyhow!("the frame was not drawn"))
-}
-
-/// The size of the frame an overlay draws on.
-fn out_viewport(image: &Image) -> pocketsplat_core::camera::Viewport {
-    image.viewport()
 }
 
 /// Renders one frame of a pack's scene as `settings` say, into `out`.
