@@ -24,7 +24,7 @@ use pocketsplat_tests::fat::{have, make_image};
 
 /// A pack of a tri-grid ground, a generated tree (two materials) and a QSplat knot, one-pass
 /// shadows in its header.
-fn generated_pack(dir: &Path) -> Vec<u8> {
+pub(crate) fn generated_pack(dir: &Path) -> Vec<u8> {
     let knot = pocketsplat_core::qs::write::bake_qs(
         &pocketsplat_sim::demo::trefoil(96, 12, 0.3),
         &pocketsplat_core::qs::write::QsBakeOptions {
@@ -375,4 +375,54 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
         }
     }
     eprintln!("{checked} frames streamed, each run ending on the resident frame");
+}
+
+/// The RAM budget of the Big Scene streamed as a 520 KB device would draw it (issue 31, item 4):
+/// two bands, a 128² map, the least caches. As baked for benchmarks (4 KB blocks) its caches
+/// alone are 228 KB and it does not fit; baked with 1 KB blocks (the least cache falls to 78 KB,
+/// for more blocks to keep a table entry of) it must, before the stack, with room for one.
+#[test]
+fn the_big_scene_in_1k_blocks_fits_a_520_kb_device_before_its_stack() {
+    for scan in pocketsplat_tests::arm::BIG_SCENE_SCANS {
+        if pocketsplat_tests::model(scan).is_none() {
+            return;
+        }
+    }
+    let root = pocketsplat_tests::workspace_root();
+    let text = std::fs::read_to_string(root.join("boards/sim/scenes/big.toml")).unwrap();
+    assert!(
+        text.contains("block_size = 4096"),
+        "big.toml's blocks changed"
+    );
+    let models = pocketsplat_tests::models_dir();
+    let text = text
+        .replace("block_size = 4096", "block_size = 1024")
+        .replace(
+            "models = \"../../../../shared/models\"",
+            &format!("models = {:?}", models.display().to_string()),
+        );
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("big1k.toml");
+    std::fs::write(&toml, text).unwrap();
+    let bytes = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
+        .unwrap()
+        .bytes;
+    let info = pocketsplat_sim::info::pack_info(&toml, &bytes).unwrap();
+    let ram = info.device_ram;
+    eprintln!(
+        "Big Scene, 1 KB blocks, {} bands, map {}²: {} bytes before the stack ({} of caches, {} \
+         of stream tables)",
+        pocketsplat_sim::info::DEVICE_BANDS,
+        pocketsplat_sim::info::DEVICE_MAP_SIZE,
+        ram.total(),
+        ram.cache - info.stream_tables,
+        info.stream_tables
+    );
+    // The resident scene firmware's stack under QEMU is 52,028 bytes, the frame setup (counted
+    // above) 26,768 of them: keep 32 KB for the rest.
+    assert!(
+        ram.total() + (32 << 10) <= pocketsplat_sim::info::PICO2_RAM,
+        "{} bytes before the stack: no room for one in 520 KB",
+        ram.total()
+    );
 }

@@ -5,12 +5,14 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use pocketsplat_core::camera::Sphere;
+use pocketsplat_core::camera::{Sphere, Viewport};
 use pocketsplat_core::scene::{ram_budget, RamBudget, Savings, ShadowMode};
+use pocketsplat_core::stream::{BlockEntry, QsStream, SlotEntry, TgStream};
 use serde_json::json;
 
 use super::tg::tg_info;
 use crate::scene::render::ram_json;
+use crate::stream::run::QS_BLOCK_LOG2;
 
 /// Statistics of a scene pack (`.pack`).
 #[derive(Clone, Debug)]
@@ -50,8 +52,46 @@ pub struct PackInfo {
     pub ram: RamBudget,
     /// The fewest bytes of cache each object streams through (`render --stream`).
     pub stream_caches: Vec<usize>,
+    /// The RAM of the pack streamed as a 520 KB device would draw it ([`DEVICE_BANDS`] bands,
+    /// a [`DEVICE_MAP_SIZE`]² map, the least caches): `cache` holds the caches and the streams'
+    /// tables (`stream_tables` below).
+    pub device_ram: RamBudget,
+    /// Of `device_ram.cache`, the streams' tables.
+    pub stream_tables: usize,
     /// The objects' names, in pack order.
     pub object_names: Vec<String>,
+}
+
+/// The RP2350's SRAM, bytes (520 KB).
+pub const PICO2_RAM: usize = 520 * 1024;
+
+/// Bands a 520 KB device draws a streamed scene's frame in (`render --bands` draws a resident
+/// frame so): a band's colour and depth instead of a frame's (153,600 bytes, not 307,200), for a
+/// walk of the scene per band (2.0× the instructions of the Big Scene's one-pass frame on
+/// thumbv7m: `POCKETSPLAT_PDA_BANDS=2 arm-bench --big-scene`).
+pub const DEVICE_BANDS: u16 = 2;
+
+/// The shadow-map side such a device draws with (`render --shadow-map`): 32 KB. Against the f64
+/// reference the Big Scene's std view at 1 px loses 1.3 dB to the pack's 512² (25.11 against
+/// 26.43 dB; 24.24 without shadows).
+pub const DEVICE_MAP_SIZE: usize = 128;
+
+/// RAM of the streams' own tables when each object streams through `caches[i]` bytes: per block
+/// of its file a [`BlockEntry`], per slot of its cache a [`SlotEntry`], and the stream itself.
+fn stream_tables(scene: &pocketsplat_core::scene::Scene<'_>, caches: &[usize]) -> usize {
+    use core::mem::size_of;
+    let pack = scene.pack();
+    (0..scene.len())
+        .filter_map(|i| Some((pack.object(i)?, caches.get(i).copied()?, i)))
+        .map(|(rec, cache, i)| {
+            let (log2, stream) = match scene.grid(i) {
+                Some(g) => (g.header().block_log2, size_of::<TgStream<'static>>()),
+                None => (QS_BLOCK_LOG2, size_of::<QsStream<'static>>()),
+            };
+            let blocks = (rec.data_len as usize).div_ceil(1 << log2);
+            blocks * size_of::<BlockEntry>() + (cache >> log2) * size_of::<SlotEntry>() + stream
+        })
+        .sum()
 }
 
 /// Statistics of a pack's bytes; `path` names it in errors.
@@ -64,6 +104,14 @@ pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
     let mut src = pocketsplat_core::stream::MemSource::new(bytes);
     let stream_caches = crate::stream::pack::least_caches(&mut src, pack)
         .with_context(|| path.display().to_string())?;
+    let stream_tables = stream_tables(&scene, &stream_caches);
+    let band = Viewport::new(
+        u32::from(Viewport::DEFAULT.width),
+        u32::from(Viewport::DEFAULT.height.div_ceil(DEVICE_BANDS)),
+    )
+    .expect("a band of the panel");
+    let mut device_ram = ram_budget(pack, pack.shadows(), DEVICE_MAP_SIZE, band);
+    device_ram.cache = stream_caches.iter().sum::<usize>() + stream_tables;
     let mut objects = Vec::new();
     for i in 0..scene.len() {
         let Some(r) = pack.object(i) else {
@@ -149,8 +197,10 @@ pub fn pack_info(path: &Path, bytes: &[u8]) -> Result<PackInfo> {
             pack,
             pack.shadows(),
             pack.shadow_map_size(),
-            pocketsplat_core::camera::Viewport::DEFAULT,
+            Viewport::DEFAULT,
         ),
+        device_ram,
+        stream_tables,
         stream_caches,
         object_names: (0..pack.object_count())
             .filter_map(|i| pack.object(i))
@@ -180,6 +230,8 @@ impl PackInfo {
             "sphere": {"center": self.sphere.center, "radius": self.sphere.radius},
             "saved_bytes": self.saved_bytes,
             "ram": ram_json(&self.ram),
+            "device_ram": ram_json(&self.device_ram),
+            "stream_tables": self.stream_tables,
             "stream_cache_bytes": self.stream_caches.iter().sum::<usize>(),
         })
     }
@@ -314,6 +366,29 @@ impl PackInfo {
                 .map(|(n, c)| format!("{n} {}", crate::stream::run::cache_arg(*c as u64)))
                 .collect::<Vec<_>>()
                 .join(", ")
+        );
+        let d = &self.device_ram;
+        let _ = writeln!(
+            out,
+            "  streamed as a 520 KB device would ({DEVICE_BANDS} bands, shadow map \
+             {DEVICE_MAP_SIZE}², the least caches): {} bytes = band {} + band depth {} + shadow \
+             map {} + shading table {} + caches {} + stream tables {} + frame setup {} + scene \
+             {}, before the stack; the Pico 2 has {} ({})",
+            d.total(),
+            d.framebuffer,
+            d.depth,
+            d.shadow_map,
+            d.shading_tables,
+            d.cache - self.stream_tables,
+            self.stream_tables,
+            d.frame_setup,
+            d.scene,
+            PICO2_RAM,
+            if d.total() <= PICO2_RAM {
+                "fits"
+            } else {
+                "does not fit"
+            }
         );
         out
     }
