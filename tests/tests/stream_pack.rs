@@ -426,3 +426,47 @@ fn the_big_scene_in_1k_blocks_fits_a_520_kb_device_before_its_stack() {
         ram.total()
     );
 }
+
+/// A streamed pack drawn in bands (what a 520 KB device draws, `--bands`): frames from what is
+/// resident band by band, and refined frames one band after another, each band's in its own
+/// passes through the least cache. Every mode must end on the whole frame the pack opened
+/// whole gives.
+#[test]
+fn a_streamed_pack_drawn_in_bands_ends_on_the_whole_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = generated_pack(dir.path());
+    let path = dir.path().join("s.pack");
+    std::fs::write(&path, &bytes).unwrap();
+    let mut src = FileSource::open(&path).unwrap();
+    let view = Pack::open(&bytes).unwrap().view_named("v").unwrap();
+    for mode in ShadowMode::ALL {
+        let s = settings(view, mode, 1.0);
+        let want = resident_crc(&bytes, &s);
+        let need = needed_cache(&mut src, &s);
+        for (bands, cache) in [(2, 16 << 20), (2, need), (3, need)] {
+            let opts = StreamOptions {
+                cache_bytes: cache,
+                max_frames: 100_000,
+                ..StreamOptions::default()
+            };
+            let mut fb = FrameBuffers::new().in_bands(bands);
+            let out = stream_pack(&mut src, |_| Ok(s), &opts, &mut fb, |_| Ok(())).unwrap();
+            assert_eq!(
+                fb.crc(),
+                want,
+                "{mode:?} in {bands} bands through {cache} B"
+            );
+            if cache == need {
+                assert!(out.passes > 1, "{mode:?} {bands} bands: no passes");
+            }
+            eprintln!(
+                "{} in {bands} bands through {}K: {} frames, {} passes, {} bytes read",
+                mode.name(),
+                cache >> 10,
+                out.frames,
+                out.passes,
+                out.counters.bytes_read
+            );
+        }
+    }
+}

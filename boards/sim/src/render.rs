@@ -205,6 +205,45 @@ impl FrameBuffers {
         )
     }
 
+    /// The core's render target over these buffers as band `top..` of a frame of `full`'s size
+    /// ([`Band`]: these buffers hold the band's rows), as [`FrameBuffers::target`].
+    pub fn band_target<'t, const M: usize>(
+        &'t mut self,
+        table: &'t mut ShadingTable<M>,
+        shadow_side: Option<usize>,
+        top: u16,
+        full: Viewport,
+    ) -> Target<'t, Band<DisplayTarget<'t, Image>>, M> {
+        let pixels =
+            DisplayTarget::new(&mut self.image, &mut self.depth).expect("a depth value per pixel");
+        let band = Band::new(pixels, top, full).expect("the band lies in the frame");
+        Self::shadowed(
+            Target::new(band, table),
+            &mut self.shadow,
+            &mut self.light,
+            shadow_side,
+        )
+    }
+
+    /// Copies `band`'s pixels and depths into rows `top..` of these buffers (as wide).
+    pub fn put_band(&mut self, top: u16, band: &FrameBuffers) {
+        let at = usize::from(top) * usize::from(self.viewport().width);
+        let n = band.depth.len();
+        self.image.pixels[at..at + n].copy_from_slice(band.image.pixels());
+        self.depth[at..at + n].copy_from_slice(&band.depth);
+    }
+
+    /// Buffers for the band of `rows` rows starting at `top` of these buffers' frame (fewer at
+    /// the bottom), or `None` past the last row.
+    pub fn band_buffers(&self, top: u16) -> Option<FrameBuffers> {
+        let full = self.viewport();
+        let h = self.band_rows().min(full.height.checked_sub(top)?);
+        Some(FrameBuffers::sized(Viewport::new(
+            u32::from(full.width),
+            u32::from(h),
+        )?))
+    }
+
     /// `target` with a shadow map of `shadow_side`² depths in `shadow` (grown on first use) and
     /// `light`, when the frame asks for shadows.
     fn shadowed<'t, P: pocketsplat_core::raster::DepthTarget, const M: usize>(
@@ -493,7 +532,7 @@ pub fn render_from<const M: usize>(
 }
 
 /// [`render_marked`] in `out`'s bands ([`FrameBuffers::in_bands`]): each band drawn into buffers
-/// of its own rows (the shadow map and light frame lent from `out`), then copied into `out`. The
+/// of its own rows (and its own shadow map), then copied into `out`. The
 /// counts are the first band's walk (every band's walk is the same walk).
 #[allow(clippy::too_many_arguments)]
 fn render_bands<const M: usize>(
@@ -507,37 +546,16 @@ fn render_bands<const M: usize>(
     mark: &mut impl FnMut(Phase),
 ) -> Result<pocketsplat_core::render::Drawn, pocketsplat_core::render::RenderError> {
     let full = out.viewport();
-    let rows = out.band_rows();
-    let width = usize::from(full.width);
     let mut first = None;
     let mut top = 0u16;
-    while top < full.height {
-        let h = rows.min(full.height - top);
-        let mut part = FrameBuffers::sized(
-            Viewport::new(u32::from(full.width), u32::from(h)).expect("a band of a valid frame"),
-        );
-        std::mem::swap(&mut part.shadow, &mut out.shadow);
-        std::mem::swap(&mut part.light, &mut out.light);
+    while let Some(mut part) = out.band_buffers(top) {
         let drawn = {
-            let pixels = DisplayTarget::new(&mut part.image, &mut part.depth)
-                .expect("a depth value per pixel");
-            let band = Band::new(pixels, top, full).expect("the band lies in the frame");
-            let mut target = FrameBuffers::shadowed(
-                Target::new(band, &mut *table),
-                &mut part.shadow,
-                &mut part.light,
-                shadow_side,
-            );
-            render_marked(model, cam, options, &mut target, layer, &mut *mark)
+            let mut target = part.band_target(&mut *table, shadow_side, top, full);
+            render_marked(model, cam, options, &mut target, layer, &mut *mark)?
         };
-        std::mem::swap(&mut part.shadow, &mut out.shadow);
-        std::mem::swap(&mut part.light, &mut out.light);
-        let drawn = drawn?;
-        let at = usize::from(top) * width..(usize::from(top) + usize::from(h)) * width;
-        out.image.pixels[at.clone()].copy_from_slice(part.image.pixels());
-        out.depth[at].copy_from_slice(&part.depth);
+        out.put_band(top, &part);
         first.get_or_insert(drawn);
-        top += h;
+        top += part.viewport().height;
     }
     Ok(first.expect("a frame has a row"))
 }

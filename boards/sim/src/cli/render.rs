@@ -95,9 +95,11 @@ pub fn run(args: &RenderArgs, matches: &ArgMatches) -> Result<()> {
         ..StreamOptions::default()
     };
     let sd_image = args.stream.sd_image.as_deref();
-    if args.stream.stream && args.frame.bands > 1 {
+    let is_pack = is_pack_input(input, args.stream.stream, sd_image.is_some());
+    if args.stream.stream && args.frame.bands > 1 && !is_pack {
         bail!(
-            "--bands {}: a streamed frame is drawn whole (bands are for resident frames so far)",
+            "--bands {}: a streamed model is drawn whole (of streamed files, scene packs are \
+             drawn in bands)",
             args.frame.bands
         );
     }

@@ -111,7 +111,7 @@ pub fn run_pack(
     opts: &StreamOptions,
     stats_json: bool,
 ) -> Result<()> {
-    let mut fb = FrameBuffers::sized(args.size);
+    let mut fb = FrameBuffers::sized(args.size).in_bands(args.bands);
     run_with(
         input,
         sd_image,

@@ -190,6 +190,7 @@ pub fn stream_pack<C: ChunkSource + ?Sized>(
         settings: pack_settings,
         table: scene_table(),
         refining: false,
+        band: None,
     };
     let file_bytes = pack.file_len();
     converge(
@@ -212,6 +213,43 @@ struct PackStream<'m, 'a> {
     /// Whether the last frame was a pass of a refined frame (its serve reads only for the object
     /// being drawn).
     refining: bool,
+    /// When the frame is drawn in bands ([`FrameBuffers::in_bands`]), the band a refined frame is
+    /// at. A refined frame in bands is one refined frame per band, each in its own passes (a
+    /// band's colour and depth are all a device keeps between passes).
+    band: Option<RefinedBand>,
+}
+
+/// Draws `pass` of `stream`'s frame from `cam` into `target`.
+fn draw_into<P: pocketsplat_core::raster::DepthTarget>(
+    stream: &mut SceneStream<'_, '_>,
+    cam: &Camera,
+    target: &mut pocketsplat_core::render::Target<'_, P, { pocketsplat_core::scene::MAX_SLOTS }>,
+    options: &pocketsplat_core::render::RenderOptions,
+    pass: StreamPass,
+) -> Result<Stats> {
+    let drawn = render_scene_stream(
+        stream,
+        cam,
+        options,
+        target,
+        pass,
+        &mut crate::render::Layers::Direct,
+        |_| {},
+    )
+    .map_err(|e| anyhow!("{e}"))?;
+    Ok(drawn.stats)
+}
+
+/// The band a refined frame drawn in bands is at.
+struct RefinedBand {
+    /// Its first row.
+    top: u16,
+    /// Its colour and depth (and shadow map), kept between its passes.
+    part: FrameBuffers,
+    /// It is the frame's last band.
+    last: bool,
+    /// Passes the earlier bands took.
+    passes_before: u32,
 }
 
 impl Streamed for PackStream<'_, '_> {
@@ -230,18 +268,58 @@ impl Streamed for PackStream<'_, '_> {
         let shadow_side = (options.shadows != pocketsplat_core::shade::ShadowMode::Off)
             .then_some(options.shadow_map_size);
         self.refining = pass != StreamPass::Frame;
-        let mut target = out.target(&mut *self.table, shadow_side);
-        let drawn = render_scene_stream(
-            &mut self.stream,
-            cam,
-            &options,
-            &mut target,
-            pass,
-            &mut crate::render::Layers::Direct,
-            |_| {},
-        )
-        .map_err(|e| anyhow!("{e}"))?;
-        Ok(drawn.stats)
+        let table = &mut *self.table;
+        let stream = &mut self.stream;
+        if out.band_rows() == out.viewport().height {
+            let mut target = out.target(table, shadow_side);
+            return draw_into(stream, cam, &mut target, &options, pass);
+        }
+        let full = out.viewport();
+        if pass == StreamPass::Frame {
+            // Every band from what is resident: each walk is the frame's, and queues what it
+            // misses afresh.
+            let (mut top, mut stats) = (0, Stats::default());
+            while let Some(mut part) = out.band_buffers(top) {
+                let mut target = part.band_target(&mut *table, shadow_side, top, full);
+                stats = draw_into(stream, cam, &mut target, &options, pass)?;
+                out.put_band(top, &part);
+                top += part.viewport().height;
+            }
+            return Ok(stats);
+        }
+        // A refined frame: the band at hand in its passes; once its refined frame is done, the
+        // next band's refined frame begins.
+        let mut pass = pass;
+        let mut band = match self.band.take() {
+            Some(b) if pass == StreamPass::NextPass && stream.refined_done() && !b.last => {
+                out.put_band(b.top, &b.part);
+                let top = b.top + b.part.viewport().height;
+                pass = StreamPass::FirstPass;
+                RefinedBand {
+                    top,
+                    part: out.band_buffers(top).context("a band past the last row")?,
+                    last: false,
+                    passes_before: b.passes_before + stream.passes(),
+                }
+            }
+            Some(b) if pass == StreamPass::NextPass => b,
+            _ => RefinedBand {
+                top: 0,
+                part: out.band_buffers(0).context("a frame has a row")?,
+                last: false,
+                passes_before: 0,
+            },
+        };
+        band.last = band.top + band.part.viewport().height == full.height;
+        let stats = {
+            let mut target = band.part.band_target(table, shadow_side, band.top, full);
+            draw_into(stream, cam, &mut target, &options, pass)?
+        };
+        if band.last && stream.refined_done() {
+            out.put_band(band.top, &band.part);
+        }
+        self.band = Some(band);
+        Ok(stats)
     }
     fn serve<C: ChunkSource + ?Sized>(&mut self, src: &mut C, budget: u32) -> ServeReport {
         self.stream.serve(src, budget, self.refining)
@@ -250,10 +328,11 @@ impl Streamed for PackStream<'_, '_> {
         self.stream.converged()
     }
     fn refined_done(&self) -> bool {
-        self.stream.refined_done()
+        // In bands, only the last band's refined frame ends the frame.
+        self.stream.refined_done() && self.band.as_ref().is_none_or(|b| b.last)
     }
     fn passes(&self) -> u32 {
-        self.stream.passes()
+        self.stream.passes() + self.band.as_ref().map_or(0, |b| b.passes_before)
     }
     fn working_set(&self) -> u32 {
         self.stream.working_set()
