@@ -182,26 +182,47 @@ pub fn render_scene_bands<'p>(
     // dropped outside the band), the CRC over the bands' rows in order: the whole frame's CRC.
     // The markers see one frame: the first band's set-up, table and clear, the rest in its
     // traversal, the last band's end.
+    // A frame of one band draws straight into the buffers: the band's row test costs 2 % of a
+    // frame's instructions (2.02 M of the Big Scene's 82.45 M at std 2 px).
     let mut mark = mark;
     let mut crc = Crc32::new();
     let mut first = None;
     for band in 0..BANDS {
-        let pixels = Band::new(
-            Framebuffer::new(&mut *targets.color, &mut *targets.depth),
-            (band * BAND_ROWS) as u16,
-            crate::PANEL,
-        )
-        .expect("BANDS bands of BAND_ROWS rows are the panel (build.rs)");
-        let target = Target::new(pixels, &mut *targets.table);
-        #[cfg(feature = "shadows")]
-        let target = target.with_shadows(&mut *targets.shadow, &mut *targets.light);
-        let mut target = target;
         let (head, tail) = (band == 0, band + 1 == BANDS);
-        let drawn = render_scene_marked(scene, &camera, &options, &mut target, &mut Direct, |p| {
+        let band_mark = |p| {
             if (head && p != Phase::End) || (tail && p == Phase::End) {
                 mark(p);
             }
-        })?;
+        };
+        let SceneTargets {
+            color,
+            depth,
+            table,
+            #[cfg(feature = "shadows")]
+            shadow,
+            #[cfg(feature = "shadows")]
+            light,
+            ..
+        } = targets;
+        let frame = Framebuffer::new(color, depth);
+        let target = Target::new(frame, &mut **table);
+        #[cfg(feature = "shadows")]
+        let target = target.with_shadows(shadow, light);
+        let drawn = if BANDS == 1 {
+            draw_in(scene, &camera, &options, target, band_mark)?
+        } else {
+            let top = (band * BAND_ROWS) as u16;
+            draw_in(
+                scene,
+                &camera,
+                &options,
+                target.map_pixels(|f| {
+                    Band::new(f, top, crate::PANEL)
+                        .expect("BANDS bands of BAND_ROWS rows are the panel (build.rs)")
+                }),
+                band_mark,
+            )?
+        };
         crc.update_u16_le(targets.color.as_flattened());
         band_rows(band * BAND_ROWS, targets.color);
         first.get_or_insert(drawn);
@@ -215,6 +236,24 @@ pub fn render_scene_bands<'p>(
         stats: drawn.stats,
         table_rebuilt: drawn.table_rebuilt,
     })
+}
+
+/// One walk of the scene's frame into `target` (the band's or the frame's buffers).
+fn draw_in<P: pocketsplat_core::raster::DepthTarget>(
+    scene: &Scene<'_>,
+    camera: &pocketsplat_core::camera::Camera,
+    options: &pocketsplat_core::render::RenderOptions,
+    mut target: Target<'_, P, MAX_SLOTS>,
+    mark: impl FnMut(Phase),
+) -> Result<pocketsplat_core::render::Drawn, SceneViewError> {
+    Ok(render_scene_marked(
+        scene,
+        camera,
+        options,
+        &mut target,
+        &mut Direct,
+        mark,
+    )?)
 }
 
 #[cfg(test)]

@@ -244,6 +244,26 @@ impl FrameBuffers {
         )?))
     }
 
+    /// Draws the frame band by band: `draw` gets each band's own buffers and its first row, and
+    /// the band is then copied into these buffers. Returns the first band's result (every band's
+    /// walk is the frame's walk).
+    ///
+    /// # Errors
+    /// The first error `draw` returns (the bands after it are not drawn).
+    pub fn draw_bands<T, E>(
+        &mut self,
+        mut draw: impl FnMut(&mut FrameBuffers, u16) -> Result<T, E>,
+    ) -> Result<Option<T>, E> {
+        let (mut top, mut first) = (0, None);
+        while let Some(mut part) = self.band_buffers(top) {
+            let r = draw(&mut part, top)?;
+            self.put_band(top, &part);
+            first.get_or_insert(r);
+            top += part.viewport().height;
+        }
+        Ok(first)
+    }
+
     /// `target` with a shadow map of `shadow_side`² depths in `shadow` (grown on first use) and
     /// `light`, when the frame asks for shadows.
     fn shadowed<'t, P: pocketsplat_core::raster::DepthTarget, const M: usize>(
@@ -546,17 +566,10 @@ fn render_bands<const M: usize>(
     mark: &mut impl FnMut(Phase),
 ) -> Result<pocketsplat_core::render::Drawn, pocketsplat_core::render::RenderError> {
     let full = out.viewport();
-    let mut first = None;
-    let mut top = 0u16;
-    while let Some(mut part) = out.band_buffers(top) {
-        let drawn = {
-            let mut target = part.band_target(&mut *table, shadow_side, top, full);
-            render_marked(model, cam, options, &mut target, layer, &mut *mark)?
-        };
-        out.put_band(top, &part);
-        first.get_or_insert(drawn);
-        top += part.viewport().height;
-    }
+    let first = out.draw_bands(|part, top| {
+        let mut target = part.band_target(&mut *table, shadow_side, top, full);
+        render_marked(model, cam, options, &mut target, layer, &mut *mark)
+    })?;
     Ok(first.expect("a frame has a row"))
 }
 

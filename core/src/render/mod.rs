@@ -166,6 +166,17 @@ impl<'t, P: DepthTarget, const M: usize> Target<'t, P, M> {
     pub fn table(&self) -> &ShadingTable<M> {
         self.table
     }
+
+    /// The same target with its pixels wrapped by `f` (e.g. in a
+    /// [`Band`](crate::raster::Band)): table and shadow map kept.
+    pub fn map_pixels<Q: DepthTarget>(self, f: impl FnOnce(P) -> Q) -> Target<'t, Q, M> {
+        Target {
+            pixels: f(self.pixels),
+            table: self.table,
+            #[cfg(feature = "shadows")]
+            shadow: self.shadow,
+        }
+    }
 }
 
 /// The steps of a frame, in order: [`render_marked`] reports the start of each (and

@@ -278,14 +278,11 @@ impl Streamed for PackStream<'_, '_> {
         if pass == StreamPass::Frame {
             // Every band from what is resident: each walk is the frame's, and queues what it
             // misses afresh.
-            let (mut top, mut stats) = (0, Stats::default());
-            while let Some(mut part) = out.band_buffers(top) {
+            let first = out.draw_bands(|part, top| {
                 let mut target = part.band_target(&mut *table, shadow_side, top, full);
-                stats = draw_into(stream, cam, &mut target, &options, pass)?;
-                out.put_band(top, &part);
-                top += part.viewport().height;
-            }
-            return Ok(stats);
+                draw_into(stream, cam, &mut target, &options, pass)
+            })?;
+            return Ok(first.unwrap_or_default());
         }
         // A refined frame: the band at hand in its passes; once its refined frame is done, the
         // next band's refined frame begins.
