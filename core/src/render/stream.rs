@@ -205,25 +205,21 @@ mod scene_walk {
 
     impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_> {
         fn walk<S: crate::splat::ColorSink>(&mut self, sink: &mut S) -> crate::splat::Stats {
-            let r = if self.refined {
-                self.stream.render_pass(
-                    self.camera,
-                    self.options,
-                    self.map,
-                    #[cfg(feature = "shadows")]
-                    self.light.as_deref_mut(),
-                    sink,
-                )
+            // A pass of the refined frame, or a frame from what is resident: the same arguments.
+            let step = if self.refined {
+                crate::stream::SceneStream::render_pass::<S>
             } else {
-                self.stream.render(
-                    self.camera,
-                    self.options,
-                    self.map,
-                    #[cfg(feature = "shadows")]
-                    self.light.as_deref_mut(),
-                    sink,
-                )
+                crate::stream::SceneStream::render::<S>
             };
+            let r = step(
+                self.stream,
+                self.camera,
+                self.options,
+                self.map,
+                #[cfg(feature = "shadows")]
+                self.light.as_deref_mut(),
+                sink,
+            );
             let total = r.as_ref().map(|s| s.total).unwrap_or_default();
             self.result = Some(r);
             total
