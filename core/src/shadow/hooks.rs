@@ -93,7 +93,29 @@ impl LightFrame {
     /// either way).
     #[inline(always)]
     pub(super) fn cast_centre(&self, map: &mut ShadowMap<'_>, p: LightPos) {
-        map.fill(p[0], p[1], 0, 0, self.depth16::<false>(p[2]));
+        if let Some(t) = map.texel_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) {
+            *t = (*t).min(self.depth16::<false>(p[2]));
+        }
+    }
+
+    /// [`LightFrame::in_shadow`] then [`LightFrame::cast_centre`] of a sample at the stop level
+    /// (directional light), with one look-up of its texel: the test reads the texel before the
+    /// sample fills it, so a sample never shadows itself.
+    #[inline(always)]
+    pub(super) fn test_and_fill(
+        &self,
+        map: &mut ShadowMap<'_>,
+        row: usize,
+        p: LightPos,
+        attr: u16,
+    ) -> bool {
+        let k = self.derived.facing[usize::from(attr) & (NORMAL_COUNT - 1)];
+        let Some(t) = map.texel_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) else {
+            return k == 0;
+        };
+        let nearest = *t;
+        *t = nearest.min(self.depth16::<false>(p[2]));
+        k == 0 || nearest < self.depth16::<false>(p[2] - self.derived.slope[row][usize::from(k)])
     }
 
     #[inline(always)]
@@ -111,16 +133,6 @@ pub struct OnePass<'l, 'm, 'b> {
 }
 
 impl OnePass<'_, '_, '_> {
-    /// Whether a cell at `level` fills the map as soon as it is drawn or casts: cells coarser
-    /// than the stop level `S` (more than a texel), or the root when it is no more than one.
-    /// Cells at `S` fill when their parent has been descended ([`OnePass::descended`]), finer
-    /// ones through their `S` ancestor.
-    #[inline(always)]
-    fn fills_now(&self, level: usize) -> bool {
-        let s = self.light.stop_level;
-        level < s || s == 0 && level == 0
-    }
-
     /// Fills the footprints of the children `mask` of a cell at `level` (= `S − 1`) at `p`.
     #[inline]
     fn fill_children(&mut self, level: usize, p: LightPos, mask: u32) {
@@ -137,10 +149,12 @@ impl OnePass<'_, '_, '_> {
 impl ShadowHooks for OnePass<'_, '_, '_> {
     type Pos = LightPos;
     const FILL_CULLED: bool = true;
-    /// Light order only above the level `S − 1` whose cells fill their children (the stop level
-    /// `S`'s cells) once all of them are tested ([`OnePass::descended`]): the order of a
-    /// `S − 1` cell's descendants cannot change what any of them is tested against, so the walk
-    /// there takes the cheaper slot order and its flat loops.
+    /// Light order only above the level `S − 1` whose children are the stop level `S`'s cells:
+    /// below, a cell is at most a texel and fills its one texel when it is done
+    /// ([`ShadowHooks::descended`]), so its descendants are tested before it fills and the order
+    /// of the ρ³ cells of one `S − 1` cell changes what they test against by no more than the
+    /// bias covers (neighbours on one surface, within a texel or two). The walk there takes the
+    /// cheaper slot order and its flat loops.
     #[inline(always)]
     fn ordered(&self, level: usize) -> bool {
         level + 1 < self.light.stop_level
@@ -156,25 +170,33 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
     fn order(&self) -> &SlotOrder {
         &self.light.order
     }
+    /// Tests, then fills: a cell coarser than the light's level of detail `S` over its footprint,
+    /// a cell at `S` its one texel (tested and filled with one look-up), a finer one not at all
+    /// (its `S` ancestor fills when its subtree is done). Testing before filling keeps a cell
+    /// from shadowing itself; cells nearer the light were visited, and filled, before it (Duguet
+    /// §5.3).
     #[inline]
     fn drawn(&mut self, level: usize, p: LightPos, attr: u16) -> bool {
         // The map holds what neighbours drew, with their footprints and centre depths, and with
         // multi-level rendering a neighbour may be one level coarser: bias as for that level,
         // which is row `level` of the bias table.
+        if level == self.light.stop_level {
+            return self.light.test_and_fill(self.map, level, p, attr);
+        }
         let shadowed = self.light.in_shadow::<false>(self.map, level, p, attr);
-        self.casts(level, p);
+        if level < self.light.stop_level {
+            self.light.cast::<false>(self.map, level, p);
+        }
         shadowed
     }
-    /// Fills at once only coarser than the light's level of detail `S` (`OnePass::fills_now`).
-    /// A cell at `S` is at most a texel in the map: its parent fills its footprint, and its
-    /// siblings', after all of them have been tested ([`ShadowHooks::descended`]), from its mask
-    /// (the light pass of two-pass shadows fills at that level too). Testing before the parent
-    /// fills keeps a cell from shadowing itself; cells nearer the light were visited, and filled,
-    /// before the parent (Duguet §5.3).
+    /// As [`OnePass::drawn`] without the test.
     #[inline]
     fn casts(&mut self, level: usize, p: LightPos) {
-        if self.fills_now(level) {
+        let s = self.light.stop_level;
+        if level < s {
             self.light.cast::<false>(self.map, level, p);
+        } else if level == s {
+            self.light.cast_centre(self.map, p);
         }
     }
     #[inline]
@@ -185,13 +207,11 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
             self.casts(level, p);
         }
     }
+    /// A cell at `S` fills its texel once its descendants are tested.
     #[inline]
-    fn descended(&mut self, level: usize, p: LightPos, mask: u32) {
-        let s = self.light.stop_level;
-        if level + 1 == s {
-            self.fill_children(level, p, mask);
-        } else if s == 0 && level == 0 {
-            self.light.cast::<false>(self.map, 0, p);
+    fn descended(&mut self, level: usize, p: LightPos, _mask: u32) {
+        if level == self.light.stop_level {
+            self.light.cast_centre(self.map, p);
         }
     }
     /// A fill-only descent stops at `S − 1`, whose cells fill their children from their masks.

@@ -112,6 +112,17 @@ impl<'a> ShadowMap<'a> {
         self.depth[v as usize * self.size + u as usize]
     }
 
+    /// The texel `(u, v)`, if it is in the map.
+    #[inline(always)]
+    fn texel_mut(&mut self, u: i32, v: i32) -> Option<&mut u16> {
+        let size = self.size as u32;
+        if (u as u32) < size && (v as u32) < size {
+            self.depth.get_mut(v as usize * self.size + u as usize)
+        } else {
+            None
+        }
+    }
+
     /// Writes `d` (keeping the nearer) over the texels whose centres lie within `[u − eu, u + eu] ×
     /// [v − ev, v + ev]` (Q8), or the texel under the centre when none does.
     #[inline]
