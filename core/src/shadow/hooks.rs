@@ -6,8 +6,23 @@
 use super::light::{LightFrame, LightPos};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
-use crate::normal::NORMAL_COUNT;
+use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
 use crate::tg::traverse::{ShadowHooks, SlotOrder};
+
+/// By normal-cone class ([`crate::tg::frame::CONE_ANGLES_DEG`]): a cell whose normal `n` has
+/// `n · l` (Q14 × Q14, `l` the direction to the light) below this faces away from the light at
+/// every sample of its subtree, `n · l < −sin(θ + 0.5°)` (the margin for the Q14 normals and
+/// direction); classes 0 and 7 bound nothing. Checked against the angles by a test.
+pub(super) const UNLIT_Q28: [i32; 8] = [
+    i32::MIN,
+    -21_061_203,
+    -39_677_287,
+    -71_736_255,
+    -115_564_443,
+    -174_334_883,
+    -233_634_328,
+    i32::MIN,
+];
 
 impl LightFrame {
     /// Map position of a light-space position: texel coordinates (Q8) and, for a point light, the
@@ -118,6 +133,16 @@ impl LightFrame {
         k == 0 || nearest < self.depth16::<false>(p[2] - self.derived.slope[row][usize::from(k)])
     }
 
+    /// Whether every sample below a cell with normal `code` and cone `class` faces away from
+    /// the light: on a closed surface such samples lie behind the lit side along every light
+    /// ray (a ray enters a solid through a face turned from the light and leaves it through one
+    /// turned towards it, nearer the light), so they never hold a texel's nearest depth.
+    #[inline(always)]
+    pub(super) fn unlit(&self, class: usize, code: usize) -> bool {
+        normal::dot_q14(&NORMALS_Q14[code & (NORMAL_COUNT - 1)], self.to_light_q14)
+            < UNLIT_Q28[class & 7]
+    }
+
     #[inline(always)]
     pub(super) fn step(&self, p: LightPos, level: usize, slot: usize) -> LightPos {
         let d = self.disp[level][slot & 31];
@@ -207,6 +232,10 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
             self.casts(level, p);
         }
     }
+    #[inline(always)]
+    fn unlit(&self, class: usize, code: usize) -> bool {
+        self.light.unlit(class, code)
+    }
     /// A cell at `S` fills its texel once its descendants are tested.
     #[inline]
     fn descended(&mut self, level: usize, p: LightPos, _mask: u32) {
@@ -246,6 +275,10 @@ impl<const POINT: bool> ShadowHooks for TwoPass<'_, '_, '_, POINT> {
     fn casts(&mut self, _: usize, _: LightPos) {}
     fn light_stop(&self, level: usize) -> bool {
         level >= self.light.stop_level
+    }
+    /// The reference algorithm casts everything.
+    fn unlit(&self, _: usize, _: usize) -> bool {
+        false
     }
 }
 
@@ -289,5 +322,9 @@ impl<const POINT: bool> ShadowHooks for Fill<'_, '_, '_, POINT> {
     }
     fn light_stop(&self, level: usize) -> bool {
         level + 1 >= self.light.stop_level
+    }
+    /// The reference algorithm casts everything.
+    fn unlit(&self, _: usize, _: usize) -> bool {
+        false
     }
 }

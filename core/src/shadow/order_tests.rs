@@ -62,6 +62,9 @@ impl ShadowHooks for OrderedEverywhere<'_, '_, '_, '_> {
     fn light_stop(&self, level: usize) -> bool {
         self.0.light_stop(level)
     }
+    fn unlit(&self, class: usize, code: usize) -> bool {
+        self.0.unlit(class, code)
+    }
     fn casts_subtree(&mut self, level: usize, p: LightPos, mask: u32) {
         self.0.casts_subtree(level, p, mask);
     }

@@ -187,3 +187,19 @@ fn a_point_light_maps_the_cube_into_the_shadow_map() {
         LightError::NotFinite
     );
 }
+
+#[test]
+fn unlit_bounds_are_minus_the_sine_of_each_cone_angle_and_its_margin() {
+    use crate::tg::frame::CONE_ANGLES_DEG;
+    for class in 1..7 {
+        let t = (CONE_ANGLES_DEG[class] + 0.5).to_radians();
+        let want = -libm::sin(t) * 268_435_456.0;
+        let got = f64::from(super::hooks::UNLIT_Q28[class]);
+        assert!(
+            (got - want).abs() <= 1.0,
+            "class {class}: {got} against {want}"
+        );
+    }
+    assert_eq!(super::hooks::UNLIT_Q28[0], i32::MIN);
+    assert_eq!(super::hooks::UNLIT_Q28[7], i32::MIN);
+}

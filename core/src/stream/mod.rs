@@ -145,6 +145,10 @@ impl<H: ShadowHooks> ShadowHooks for PassHooks<'_, H> {
         self.inner.light_stop(level)
     }
     #[inline(always)]
+    fn unlit(&self, class: usize, code: usize) -> bool {
+        self.inner.unlit(class, code)
+    }
+    #[inline(always)]
     fn casts_subtree(&mut self, level: usize, p: H::Pos, mask: u32) {
         if self.drawing.get() {
             self.inner.casts_subtree(level, p, mask);

@@ -33,6 +33,11 @@ pub trait ShadowHooks {
     fn drawn(&mut self, level: usize, p: Self::Pos, attr: u16) -> bool;
     /// A sample that casts but is not drawn (backfacing, or in a culled subtree): fill only.
     fn casts(&mut self, level: usize, p: Self::Pos);
+    /// Whether a subtree the view does not draw, whose cell has normal `code` and cone `class`
+    /// (classes 0 and 7 bound nothing), faces away from the light at every sample, so that its
+    /// casts can be left out. (No default: a wrapper that forgot to forward it would walk what
+    /// the hooks it wraps leave out.)
+    fn unlit(&self, class: usize, code: usize) -> bool;
     /// Whether a cell at `level` is small enough in the shadow map to stop a fill-only descent.
     fn light_stop(&self, level: usize) -> bool;
     /// Where a fill-only descent stops ([`ShadowHooks::light_stop`]): the cell at `level`, whose
@@ -68,6 +73,10 @@ impl ShadowHooks for NoShadows {
     #[inline(always)]
     fn light_stop(&self, _: usize) -> bool {
         true
+    }
+    #[inline(always)]
+    fn unlit(&self, _: usize, _: usize) -> bool {
+        false
     }
 }
 

@@ -892,6 +892,16 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             return;
         }
         count!(self.stats.nodes_visited += 1);
+        let class = (mask >> 27 & 7) as usize;
+        if class != 0
+            && class != 7
+            && self
+                .hooks
+                .unlit(class, usize::from(self.data.attr(level, index) & 0x1FFF))
+        {
+            // Turned from the light at every sample: it casts nothing a lit side does not.
+            return;
+        }
         let l = usize::from(level);
         if level != self.frame.depth && !self.hooks.light_stop(l) {
             self.enter(level, index);
