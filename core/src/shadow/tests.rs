@@ -191,8 +191,8 @@ fn a_point_light_maps_the_cube_into_the_shadow_map() {
 #[test]
 fn unlit_bounds_are_minus_the_sine_of_each_cone_angle_and_its_margin() {
     use crate::tg::frame::CONE_ANGLES_DEG;
-    for class in 1..7 {
-        let t = (CONE_ANGLES_DEG[class] + 0.5).to_radians();
+    for (class, deg) in CONE_ANGLES_DEG.iter().enumerate().take(7).skip(1) {
+        let t = (deg + 0.5).to_radians();
         let want = -libm::sin(t) * 268_435_456.0;
         let got = f64::from(super::hooks::UNLIT_Q28[class]);
         assert!(
