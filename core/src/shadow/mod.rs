@@ -19,8 +19,11 @@
 //! - [`OnePass`]: the ρ³ sub-cells are ordered once per light by their projection on the light
 //!   direction, so cells nearer the light are always traversed first; each sample tests the map at its
 //!   centre and then fills its footprint, in the same pass as the view. Subtrees the view culls are
-//!   still walked (to the light's level of detail) because they may cast into the view, and
-//!   backfacing samples cast without being drawn. A light exactly along an axis makes whole layers
+//!   still walked (to the light's level of detail) because they may cast into the view, unless
+//!   their normal cone faces away from the light (on a closed surface such samples lie behind the
+//!   lit side along every light ray), and backfacing samples cast without being drawn. A cell at
+//!   the light's level of detail (about a texel) fills the texel under its centre once its
+//!   subtree has been tested. A light exactly along an axis makes whole layers
 //!   of sub-cells tie; ties keep slot order, which is safe because cells in one layer across the
 //!   light cannot shadow each other. Samples of different levels (multi-level rendering stops at
 //!   different depths in different places) fill footprints and get biases of their own cell's size.
