@@ -57,8 +57,6 @@ use crate::raster::DepthTarget;
 use crate::shade::{ShadingTable, ShadowMode};
 use crate::splat::{ColorSink, ShadedRaster, Stats};
 
-#[cfg(feature = "scene")]
-use crate::scene::SceneStats;
 #[cfg(feature = "shadows")]
 use crate::shadow::LightFrame;
 
@@ -221,7 +219,7 @@ pub struct Drawn {
     pub shadows: ShadowMode,
     /// A scene's counts per object.
     #[cfg(feature = "scene")]
-    pub scene: Option<SceneStats>,
+    pub scene: Option<crate::scene::SceneStats>,
 }
 
 /// What a caller puts between a frame's walk and the shaded raster: a sink of its own wrapping
