@@ -29,8 +29,12 @@ fn main() {
     // where `fixed::wide_mul` builds the product from 16-bit halves instead of a library call.
     println!("cargo:rustc-check-cfg=cfg(no_long_multiply)");
     let target = std::env::var("TARGET").unwrap_or_default();
+    // The same cores have no unaligned loads either: a `read_unaligned` is four byte loads there,
+    // so the resident grid reads its words whole where its arrays are word-aligned.
+    println!("cargo:rustc-check-cfg=cfg(no_unaligned_loads)");
     if target.starts_with("thumbv6m") || target.starts_with("thumbv8m.base") {
         println!("cargo:rustc-cfg=no_long_multiply");
+        println!("cargo:rustc-cfg=no_unaligned_loads");
     }
     println!("cargo:rerun-if-changed=src/normal/code.rs");
     println!("cargo:rerun-if-changed=src/qs/normal.rs");

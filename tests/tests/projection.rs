@@ -154,3 +154,68 @@ fn bunny_projection_within_half_a_pixel_octree_and_trigrid() {
         eprintln!("bunny rho {rho} depth {depth}: worst {worst:.4} px over {splats} splats");
     }
 }
+
+/// Every splat of a frame, as the walk handed it over.
+struct Collect(Vec<(i32, i32, i32, u16, u16, u8, u32)>);
+
+impl SplatSink for Collect {
+    fn splat(&mut self, s: &SampleSplat) {
+        let SampleSplat {
+            x_q8,
+            y_q8,
+            size_q8,
+            depth,
+            attr,
+            level,
+            index,
+            ..
+        } = *s;
+        self.0
+            .push((x_q8, y_q8, size_q8, depth, attr, level, index));
+    }
+}
+
+/// The resident reader that reads whole words (what an M0+ walks when the file lies at a multiple
+/// of 4 bytes in memory) exists exactly for aligned bytes, and draws every splat the byte reader
+/// draws, in the same order.
+#[test]
+fn the_word_aligned_reader_draws_what_the_byte_reader_does() {
+    use pocketsplat_core::tg::{render_nodes, NoShadows, Resident};
+    let g =
+        pocketsplat_core::bake::bake_grid(&sphere_mesh(48), BakeOptions { rho: 3, depth: 4 }, None)
+            .unwrap();
+    // Unbricked, as the firmware links it (a bricked file walks through its own reader).
+    let bytes = pocketsplat_core::tg::write::write_tg_as(
+        &g,
+        12,
+        pocketsplat_core::tg::write::Layout::Unbricked,
+    )
+    .unwrap();
+    // A copy at a multiple of 4 bytes in memory, and one a byte past it.
+    let mut buf = vec![0u8; bytes.len() + 8];
+    let at = buf.as_ptr().align_offset(4);
+    buf[at + 1..at + 1 + bytes.len()].copy_from_slice(&bytes);
+    let misaligned = TriGrid::open(&buf[at + 1..at + 1 + bytes.len()], Verify::Full).unwrap();
+    assert!(Resident::new(&misaligned).aligned().is_none());
+    buf[at..at + bytes.len()].copy_from_slice(&bytes);
+    let tg = TriGrid::open(&buf[at..at + bytes.len()], Verify::Full).unwrap();
+    let aligned = Resident::new(&tg)
+        .aligned()
+        .expect("an aligned file reads whole words");
+    let sphere = Sphere::from_bounds(tg.header().bounds);
+    for (name, view) in STANDARD_VIEWS {
+        let camera = Camera::orbit(sphere, view, 45.0);
+        let frame = TgFrame::new(
+            tg.header(),
+            &Placement::IDENTITY,
+            &camera,
+            &RenderOptions::default(),
+        )
+        .expect("frame");
+        let (mut want, mut got) = (Collect(Vec::new()), Collect(Vec::new()));
+        render_tg(&tg, &frame, &mut want);
+        render_nodes(aligned, &frame, &mut NoShadows, &mut got);
+        assert!(!want.0.is_empty(), "{name}: nothing drawn");
+        assert_eq!(got.0, want.0, "{name}");
+    }
+}

@@ -67,8 +67,14 @@ pub trait NodeData {
 ///
 /// Its reads are not bounds-checked: [`TriGrid::open`] proved every index the walk can compute
 /// (see the private module `unchecked`).
+///
+/// `ALIGNED`: every array starts at a multiple of 4 bytes in memory (the format aligns them within
+/// the file, so the file's own place in memory decides; [`Resident::aligned`]), and words are read
+/// with one load on cores that have no unaligned loads (the M0+, where an unaligned `u32` is four
+/// byte loads and their shifts). A separate type, so that the walk is compiled for each and no
+/// read tests a flag.
 #[derive(Clone, Copy, Debug)]
-pub struct Resident<'g> {
+pub struct Resident<'g, const ALIGNED: bool = false> {
     /// Indexed by `level & 15`: in range without a check.
     arrays: [LevelArrays<'g>; 16],
     rho: u8,
@@ -90,6 +96,22 @@ impl<'g> Resident<'g> {
         }
     }
 
+    /// The same reader reading whole words, when every array starts at a multiple of 4 bytes.
+    pub fn aligned(self) -> Option<Resident<'g, true>> {
+        // (An empty array is never read: where it points does not matter.)
+        let word = |b: &[u8]| b.is_empty() || (b.as_ptr() as usize).is_multiple_of(4);
+        self.arrays
+            .iter()
+            .all(|a| word(a.attrs) && word(a.masks) && word(a.groups))
+            .then_some(Resident {
+                arrays: self.arrays,
+                rho: self.rho,
+                depth: self.depth,
+            })
+    }
+}
+
+impl<'g, const ALIGNED: bool> Resident<'g, ALIGNED> {
     #[inline(always)]
     fn level(&self, level: u8) -> &LevelArrays<'g> {
         &self.arrays[usize::from(level & 15)]
@@ -111,20 +133,48 @@ mod unchecked {
 
     /// Attribute `i`: `2i + 2 ≤ attrs.len()`.
     #[inline(always)]
-    pub(super) fn attr(a: &LevelArrays<'_>, i: u32) -> u16 {
+    pub(super) fn attr(a: &LevelArrays<'_>, i: u32, aligned: bool) -> u16 {
         let at = 2 * i as usize;
         debug_assert!(at + 2 <= a.attrs.len());
         // SAFETY: the walk reads only validated indices (module docs), so `at + 2 ≤ len`.
-        u16::from_le(unsafe { a.attrs.as_ptr().add(at).cast::<u16>().read_unaligned() })
+        let p = unsafe { a.attrs.as_ptr().add(at) }.cast::<u16>();
+        #[cfg(no_unaligned_loads)]
+        if aligned {
+            debug_assert!(p.is_aligned());
+            // SAFETY: as above, and `at` is even, so `p` is aligned if the array is.
+            return u16::from_le(unsafe { p.read() });
+        }
+        let _ = aligned;
+        // SAFETY: as above.
+        u16::from_le(unsafe { p.read_unaligned() })
     }
 
-    /// ρ = 3 mask word `i`: `4i + 4 ≤ masks.len()`.
+    /// ρ = 3 mask word `i`: `4i + 4 ≤ masks.len()`. `aligned`: the array starts at a multiple
+    /// of 4 bytes (so does each of these readers').
     #[inline(always)]
-    pub(super) fn mask_u32(a: &LevelArrays<'_>, i: u32) -> u32 {
+    pub(super) fn mask_u32(a: &LevelArrays<'_>, i: u32, aligned: bool) -> u32 {
         let at = 4 * i as usize;
         debug_assert!(at + 4 <= a.masks.len());
-        // SAFETY: as for `attr`.
-        u32::from_le(unsafe { a.masks.as_ptr().add(at).cast::<u32>().read_unaligned() })
+        // SAFETY: as for `attr`; `at` is a multiple of 4, so the word is aligned if the array is.
+        unsafe { word(a.masks.as_ptr().add(at), aligned) }
+    }
+
+    /// The little-endian word at `p`: one load where `aligned` says `p` is a multiple of 4 and the
+    /// core cannot load unaligned words (four byte loads and their shifts otherwise).
+    ///
+    /// # Safety
+    /// `p..p + 4` is readable, and a multiple of 4 when `aligned`.
+    #[inline(always)]
+    unsafe fn word(p: *const u8, aligned: bool) -> u32 {
+        #[cfg(no_unaligned_loads)]
+        if aligned {
+            debug_assert!(p.cast::<u32>().is_aligned());
+            // SAFETY: the caller's.
+            return u32::from_le(unsafe { p.cast::<u32>().read() });
+        }
+        let _ = aligned;
+        // SAFETY: the caller's.
+        u32::from_le(unsafe { p.cast::<u32>().read_unaligned() })
     }
 
     /// ρ = 2 mask `i`: `i < masks.len()`.
@@ -137,15 +187,15 @@ mod unchecked {
 
     /// Group entry `i`: `4i + 4 ≤ groups.len()`.
     #[inline(always)]
-    pub(super) fn group(a: &LevelArrays<'_>, i: u32) -> u32 {
+    pub(super) fn group(a: &LevelArrays<'_>, i: u32, aligned: bool) -> u32 {
         let at = 4 * i as usize;
         debug_assert!(at + 4 <= a.groups.len());
-        // SAFETY: as for `attr`.
-        u32::from_le(unsafe { a.groups.as_ptr().add(at).cast::<u32>().read_unaligned() })
+        // SAFETY: as for `mask_u32`.
+        unsafe { word(a.groups.as_ptr().add(at), aligned) }
     }
 }
 
-impl NodeData for Resident<'_> {
+impl<const ALIGNED: bool> NodeData for Resident<'_, ALIGNED> {
     const STREAMED: bool = false;
     #[inline(always)]
     fn shape(&self) -> (u8, u8) {
@@ -153,7 +203,7 @@ impl NodeData for Resident<'_> {
     }
     #[inline(always)]
     fn attr(&self, level: u8, i: u32) -> u16 {
-        unchecked::attr(self.level(level), i)
+        unchecked::attr(self.level(level), i, ALIGNED)
     }
     #[inline(always)]
     fn mask(&self, level: u8, i: u32) -> u32 {
@@ -161,7 +211,7 @@ impl NodeData for Resident<'_> {
         if self.rho == 2 {
             unchecked::mask_u8(a, i)
         } else {
-            unchecked::mask_u32(a, i)
+            unchecked::mask_u32(a, i, ALIGNED)
         }
     }
     #[inline(always)]
@@ -170,12 +220,12 @@ impl NodeData for Resident<'_> {
         if RHO == 2 {
             unchecked::mask_u8(a, i)
         } else {
-            unchecked::mask_u32(a, i)
+            unchecked::mask_u32(a, i, ALIGNED)
         }
     }
     #[inline(always)]
     fn group(&self, level: u8, i: u32) -> u32 {
-        unchecked::group(self.level(level), i)
+        unchecked::group(self.level(level), i, ALIGNED)
     }
     #[inline(always)]
     fn children_resident(&mut self, _: u8, _: u32, _: u32, _: u32) -> bool {

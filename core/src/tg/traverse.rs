@@ -13,7 +13,10 @@ pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
-use crate::fixed::{recip, wide_mul, wide_mul_i16, wide_mul_u, wide_mul_u64, SUBPIXEL_BITS};
+use crate::fixed::{
+    dot3_i16, dot3_shr16, mul_shr, recip, wide_mul, wide_mul_small, wide_mul_u, wide_mul_u64,
+    SUBPIXEL_BITS,
+};
 use crate::frame::Walk;
 use crate::normal::NORMALS_Q14;
 use crate::raster::exact_footprint;
@@ -114,10 +117,14 @@ pub fn render_tg_with<'g, S: SplatSink, H: ShadowHooks>(
     sink: &mut S,
 ) -> Stats {
     if grid.header().bricked() {
-        render_nodes(Bricked::new(grid), frame, hooks, sink)
-    } else {
-        render_nodes(Resident::new(grid), frame, hooks, sink)
+        return render_nodes(Bricked::new(grid), frame, hooks, sink);
     }
+    let data = Resident::new(grid);
+    #[cfg(no_unaligned_loads)]
+    if let Some(data) = data.aligned() {
+        return render_nodes(data, frame, hooks, sink);
+    }
+    render_nodes(data, frame, hooks, sink)
 }
 
 /// [`render_tg_with`] over any [`NodeData`]: the streaming traversal. Where a cell's children are
@@ -143,10 +150,14 @@ pub fn render_nodes<D: NodeData, S: SplatSink, H: ShadowHooks>(
 /// [`ShadowHooks::light_stop`] says; returns the nodes visited.
 pub fn fill_tg<'g, H: ShadowHooks>(grid: &'g TriGrid<'g>, frame: &TgFrame, hooks: &mut H) -> u32 {
     if grid.header().bricked() {
-        fill_nodes(Bricked::new(grid), frame, hooks)
-    } else {
-        fill_nodes(Resident::new(grid), frame, hooks)
+        return fill_nodes(Bricked::new(grid), frame, hooks);
     }
+    let data = Resident::new(grid);
+    #[cfg(no_unaligned_loads)]
+    if let Some(data) = data.aligned() {
+        return fill_nodes(data, frame, hooks);
+    }
+    fill_nodes(data, frame, hooks)
 }
 
 /// [`fill_tg`] over any [`NodeData`]: a streamed grid casts what is resident (where children are
@@ -232,7 +243,7 @@ struct FinalChildren<'f, P> {
 /// `n · v` for a Q14 normal `n` and an eye vector `v`, exact: the sign a backface test reads.
 #[inline(always)]
 fn normal_dot(n: [i16; 3], v: [i32; 3]) -> i64 {
-    wide_mul_i16(n[0], v[0]) + wide_mul_i16(n[1], v[1]) + wide_mul_i16(n[2], v[2])
+    dot3_i16(n, v)
 }
 
 /// Bit `code` of a per-normal-code bit table.
@@ -648,7 +659,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         // `s = shift − 49 ≥ 0`, so `a / W` in Q16 is the high word of `a · r31`, shifted by `s`.
         let r31 = (r >> 1) as i32;
         let s = shift - 49;
-        let hi = |a: i32| (wide_mul(a, r31) >> 32) as i32 >> s;
+        let hi = |a: i32| mul_shr::<32>(a, r31) >> s;
         // The cell's centre, Q16 pixels, and the screen offset of one tick along each axis,
         // Q16 pixels: d(X/W) = (dX − (X/W)·dW) / W. Bounded by the linear rule (a cell of at
         // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
@@ -657,7 +668,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
         // (Written out per axis: `array::from_fn` here stays a call per array on thumbv7m.)
         let u = [hi(t[0][2] << 8), hi(t[1][2] << 8), hi(t[2][2] << 8)];
-        let du = |p: i32, u: i32| (wide_mul(p, u) >> 24) as i32;
+        let du = |p: i32, u: i32| mul_shr::<24>(p, u);
         let j = |a: usize, c: usize, p: i32| hi(t[a][c]) - du(p, u[a]);
         let jx = [j(0, 0, xp), j(1, 0, xp), j(2, 0, xp)];
         let jy = [j(0, 1, yp), j(1, 1, yp), j(2, 1, yp)];
@@ -670,7 +681,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let (k, kshift) = f.size_k[n];
         let s3 = shift.wrapping_sub(kshift).wrapping_sub(34);
         let size_q8 = if s3 < 32 {
-            ((wide_mul((k >> 1) as i32, r31) >> 32) as i32) >> s3
+            mul_shr::<32>((k >> 1) as i32, r31) >> s3
         } else if shift > kshift {
             (wide_mul_u(k, r) >> (shift - kshift)).min(i32::MAX as u64) as i32
         } else {
@@ -948,11 +959,13 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
     /// ([`TgFrame::to_model`]; it fits an `i32`, as `c` does).
     #[inline(always)]
     fn to_model(&self, c: [i32; 3]) -> [i32; 3] {
+        const { assert!(TO_MODEL_BITS == 16) };
         let m = &self.frame.to_model;
-        core::array::from_fn(|k| {
-            ((wide_mul(m[k][0], c[0]) + wide_mul(m[k][1], c[1]) + wide_mul(m[k][2], c[2]))
-                >> TO_MODEL_BITS) as i32
-        })
+        [
+            dot3_shr16(m[0], c),
+            dot3_shr16(m[1], c),
+            dot3_shr16(m[2], c),
+        ]
     }
 
     /// Whether every sample of the subtree of cell `index` at `level` (centre `c`, inside the
@@ -1115,7 +1128,8 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             let t = lv.tick;
             (
                 core::array::from_fn(|k| {
-                    let d: i64 = (0..3).map(|a| wide_mul(o[a], t[a][k])).sum();
+                    // |o| ≤ 2⁷: a centroid within the cell.
+                    let d: i64 = (0..3).map(|a| wide_mul_small(o[a], t[a][k])).sum();
                     c[k] + (d >> 6) as i32
                 }),
                 o,

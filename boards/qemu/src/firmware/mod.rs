@@ -59,7 +59,7 @@ fn main() -> ! {
     let psram_bytes = memory::check_psram();
 
     #[cfg(all(feature = "model", feature = "scene"))]
-    if pocketsplat_qemu::scene::is_pack(&run::model::MODEL) {
+    if pocketsplat_qemu::scene::is_pack(&run::model::MODEL.0) {
         // A scene is drawn in bands of BAND_ROWS rows (all of them unless the build says
         // otherwise): the first rows of the buffers.
         let band = pocketsplat_qemu::BAND_ROWS;

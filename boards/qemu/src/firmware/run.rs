@@ -26,10 +26,15 @@ use super::semihosting::fail;
 /// The baked model, in PSRAM (memory.x), loaded by QEMU with the rest of the ELF.
 #[cfg(feature = "model")]
 pub mod model {
+    /// Bytes at a multiple of 16 in memory, as the format aligns its arrays within a file: a
+    /// core without unaligned loads (the M0+) then reads the grid's words whole.
+    #[repr(C, align(16))]
+    pub struct Aligned<T>(pub T);
+
     /// The `.tg` or `.qs` file named by `POCKETSPLAT_PDA_MODEL` at build time.
     #[link_section = ".psram"]
-    pub static MODEL: [u8; include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE")).len()] =
-        *include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE"));
+    pub static MODEL: Aligned<[u8; include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE")).len()]> =
+        Aligned(*include_bytes!(env!("POCKETSPLAT_PDA_MODEL_FILE")));
 }
 
 /// Prints the memory report and ends the run with success.
@@ -49,7 +54,7 @@ pub fn render_pack(mut targets: pocketsplat_qemu::scene::SceneTargets<'_>) {
     use pocketsplat_core::tg::Verify;
     use pocketsplat_qemu::scene::{render_scene_view, scene_frame_specs};
 
-    let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+    let bytes: &[u8] = core::hint::black_box(&model::MODEL.0[..]);
     let pack = match Pack::open(bytes) {
         Ok(pack) => pack,
         Err(e) => fail(format_args!("pack: {e}")),
@@ -92,7 +97,7 @@ pub fn render_model(mut targets: Targets<'_>) {
     use pocketsplat_qemu::{model_frame_specs, render_standard_view, Model};
 
     // Opaque: the bytes are a known constant, and the compiler must not fold any of the parse.
-    let bytes: &[u8] = core::hint::black_box(&model::MODEL[..]);
+    let bytes: &[u8] = core::hint::black_box(&model::MODEL.0[..]);
     // Of a tri-grid, the header CRC and the structure; the 5 MB data CRC pass is for untrusted
     // sources. A QSplat file is checked whole (its reader has one level).
     let model = match Model::open_with(bytes, Verify::Structure) {
