@@ -377,26 +377,17 @@ mod tests {
             pairs.push((a, next() as i32 >> (next() % 32)));
         }
         for (a, b) in pairs {
-            assert_eq!(
-                halves::mul_shr::<32>(a, b),
-                plain::mul_shr::<32>(a, b),
-                "{a}·{b} >> 32"
-            );
-            assert_eq!(
-                halves::mul_shr::<24>(a, b),
-                plain::mul_shr::<24>(a, b),
-                "{a}·{b} >> 24"
-            );
-            assert_eq!(
-                halves::mul_shr::<16>(a, b),
-                plain::mul_shr::<16>(a, b),
-                "{a}·{b} >> 16"
-            );
-            assert_eq!(
-                halves::mul_shr::<20>(a, b),
-                plain::mul_shr::<20>(a, b),
-                "{a}·{b} >> 20"
-            );
+            fn check<const K: u32>(a: i32, b: i32) {
+                assert_eq!(
+                    halves::mul_shr::<K>(a, b),
+                    plain::mul_shr::<K>(a, b),
+                    "{a}·{b} >> {K}"
+                );
+            }
+            check::<32>(a, b);
+            check::<24>(a, b);
+            check::<20>(a, b);
+            check::<16>(a, b);
             let u = a as u32 >> (b as u32 % 32);
             assert_eq!(halves::leading_zeros(u), u.leading_zeros(), "clz {u:#x}");
             let (c, d) = (next() as i32 >> (next() % 32), next() as i32);

@@ -156,22 +156,11 @@ fn bunny_projection_within_half_a_pixel_octree_and_trigrid() {
 }
 
 /// Every splat of a frame, as the walk handed it over.
-struct Collect(Vec<(i32, i32, i32, u16, u16, u8, u32)>);
+struct Collect(Vec<SampleSplat>);
 
 impl SplatSink for Collect {
     fn splat(&mut self, s: &SampleSplat) {
-        let SampleSplat {
-            x_q8,
-            y_q8,
-            size_q8,
-            depth,
-            attr,
-            level,
-            index,
-            ..
-        } = *s;
-        self.0
-            .push((x_q8, y_q8, size_q8, depth, attr, level, index));
+        self.0.push(*s);
     }
 }
 

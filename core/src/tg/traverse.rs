@@ -240,6 +240,72 @@ struct FinalChildren<'f, P> {
     p: P,
 }
 
+/// The screen-space set-up of a cell whose children [`Walker::draw_children_linear`] draws: its
+/// centre, the screen offset of one tick of its children along each axis, its depth and its
+/// children's footprint (Q16 pixels, Q16 pixels per Q6 tick, Q8 depth units, Q8 pixels).
+///
+/// Out of line where the core has no 32 × 32 → 64 multiply: there its twenty products from 16-bit
+/// halves, inlined into a walk that keeps a light-space position too (one-pass shadows), left the
+/// M0+ spilling 1,041 instructions a cell (std 1 px one-pass: 58.08 → 61.03 M); on its own it is
+/// one set-up whatever the walk.
+struct LinearCell {
+    xp: i32,
+    yp: i32,
+    jx: [i32; 3],
+    jy: [i32; 3],
+    dp: i32,
+    size_q8: i32,
+}
+
+impl LinearCell {
+    #[cfg_attr(no_long_multiply, inline(never))]
+    #[cfg_attr(not(no_long_multiply), inline(always))]
+    fn of(f: &TgFrame, n: usize, c: [i32; 3]) -> Self {
+        let t = &f.tick[n];
+        let [x, y, w] = c;
+        let (r, shift) = recip(w as u32);
+        // 1/W = r31 / 2^(shift − 1), r31 < 2³¹; `W ≥ 2¹⁸` (the linear rule) makes
+        // `s = shift − 49 ≥ 0`, so `a / W` in Q16 is the high word of `a · r31`, shifted by `s`.
+        let r31 = (r >> 1) as i32;
+        let s = shift - 49;
+        let hi = |a: i32| mul_shr::<32>(a, r31) >> s;
+        // The cell's centre, Q16 pixels, and the screen offset of one tick along each axis,
+        // Q16 pixels: d(X/W) = (dX − (X/W)·dW) / W. Bounded by the linear rule (a cell of at
+        // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
+        let (xp, yp) = (hi(x), hi(y));
+        // dW / W per tick, Q24: a tick is a small part of the depth (|dW| < 2²³ and
+        // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
+        // (Written out per axis: `array::from_fn` here stays a call per array on thumbv7m.)
+        let u = [hi(t[0][2] << 8), hi(t[1][2] << 8), hi(t[2][2] << 8)];
+        let du = |p: i32, u: i32| mul_shr::<24>(p, u);
+        let j = |a: usize, c: usize, p: i32| hi(t[a][c]) - du(p, u[a]);
+        let jx = [j(0, 0, xp), j(1, 0, xp), j(2, 0, xp)];
+        let jy = [j(0, 1, yp), j(1, 1, yp), j(2, 1, yp)];
+        // The cell's depth, Q8 depth units.
+        let dz = (w - f.depth_w0).max(0) as u32;
+        let dp = (wide_mul_u64(dz, f.depth_scale) >> 24).min(65534 << 8) as i32;
+        // The footprint, Q8: k · 2^kshift / W, the high word of (k/2)·r31 shifted by
+        // shift − kshift − 34 (the children's own depths differ from the cell's by under 1 %).
+        let (k, kshift) = f.size_k[n];
+        let s3 = shift.wrapping_sub(kshift).wrapping_sub(34);
+        let size_q8 = if s3 < 32 {
+            mul_shr::<32>((k >> 1) as i32, r31) >> s3
+        } else if shift > kshift {
+            (wide_mul_u(k, r) >> (shift - kshift)).min(i32::MAX as u64) as i32
+        } else {
+            i32::MAX
+        };
+        LinearCell {
+            xp,
+            yp,
+            jx,
+            jy,
+            dp,
+            size_q8,
+        }
+    }
+}
+
 /// `n · v` for a Q14 normal `n` and an eye vector `v`, exact: the sign a backface test reads.
 #[inline(always)]
 fn normal_dot(n: [i16; 3], v: [i32; 3]) -> i64 {
@@ -652,41 +718,10 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let next = level + 1;
         let n = usize::from(next);
         let leaves = next == f.depth;
-        let t = &f.tick[n];
-        let [x, y, w] = c;
-        let (r, shift) = recip(w as u32);
-        // 1/W = r31 / 2^(shift − 1), r31 < 2³¹; `W ≥ 2¹⁸` (the linear rule) makes
-        // `s = shift − 49 ≥ 0`, so `a / W` in Q16 is the high word of `a · r31`, shifted by `s`.
-        let r31 = (r >> 1) as i32;
-        let s = shift - 49;
-        let hi = |a: i32| mul_shr::<32>(a, r31) >> s;
-        // The cell's centre, Q16 pixels, and the screen offset of one tick along each axis,
-        // Q16 pixels: d(X/W) = (dX − (X/W)·dW) / W. Bounded by the linear rule (a cell of at
-        // most 8 px), so that sums of three offsets of up to 2⁹ Q6 ticks fit an `i32`.
-        let (xp, yp) = (hi(x), hi(y));
-        // dW / W per tick, Q24: a tick is a small part of the depth (|dW| < 2²³ and
-        // |dW / W| < 2⁻⁸ under the linear rule); `xp · u` takes 64 bits (up to 2⁴¹).
-        // (Written out per axis: `array::from_fn` here stays a call per array on thumbv7m.)
-        let u = [hi(t[0][2] << 8), hi(t[1][2] << 8), hi(t[2][2] << 8)];
-        let du = |p: i32, u: i32| mul_shr::<24>(p, u);
-        let j = |a: usize, c: usize, p: i32| hi(t[a][c]) - du(p, u[a]);
-        let jx = [j(0, 0, xp), j(1, 0, xp), j(2, 0, xp)];
-        let jy = [j(0, 1, yp), j(1, 1, yp), j(2, 1, yp)];
-        // Depth per tick and the cell's depth, Q8 depth units.
+        let cell = LinearCell::of(f, n, c);
+        let (xp, yp, jx, jy) = (cell.xp, cell.yp, cell.jx, cell.jy);
+        let (dp, size_q8) = (cell.dp, cell.size_q8);
         let jd = &f.tick_depth[n];
-        let dz = (w - f.depth_w0).max(0) as u32;
-        let dp = (wide_mul_u64(dz, f.depth_scale) >> 24).min(65534 << 8) as i32;
-        // The footprint, Q8: k · 2^kshift / W, the high word of (k/2)·r31 shifted by
-        // shift − kshift − 34 (the children's own depths differ from the cell's by under 1 %).
-        let (k, kshift) = f.size_k[n];
-        let s3 = shift.wrapping_sub(kshift).wrapping_sub(34);
-        let size_q8 = if s3 < 32 {
-            mul_shr::<32>((k >> 1) as i32, r31) >> s3
-        } else if shift > kshift {
-            (wide_mul_u(k, r) >> (shift - kshift)).min(i32::MAX as u64) as i32
-        } else {
-            i32::MAX
-        };
         let mut vp = None;
         let tm = f.half_step_model[n];
         let mut child = first_child;
