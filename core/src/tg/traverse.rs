@@ -718,9 +718,14 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let next = level + 1;
         let n = usize::from(next);
         let leaves = next == f.depth;
-        let cell = LinearCell::of(f, n, c);
-        let (xp, yp, jx, jy) = (cell.xp, cell.yp, cell.jx, cell.jy);
-        let (dp, size_q8) = (cell.dp, cell.size_q8);
+        let LinearCell {
+            xp,
+            yp,
+            jx,
+            jy,
+            dp,
+            size_q8,
+        } = LinearCell::of(f, n, c);
         let jd = &f.tick_depth[n];
         let mut vp = None;
         let tm = f.half_step_model[n];
