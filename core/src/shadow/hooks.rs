@@ -7,7 +7,7 @@ use super::light::{LightFrame, LightPos};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
-use crate::tg::traverse::{ShadowHooks, SlotOrder};
+use crate::tg::traverse::{drawn_each, ShadowHooks, SlotOrder};
 
 /// By normal-cone class ([`crate::tg::frame::CONE_ANGLES_DEG`]): a cell whose normal `n` has
 /// `n · l` (Q14 × Q14, `l` the direction to the light) below this faces away from the light at
@@ -125,12 +125,17 @@ impl LightFrame {
         attr: u16,
     ) -> bool {
         let k = self.derived.facing[usize::from(attr) & (NORMAL_COUNT - 1)];
+        if k == 0 {
+            // Turned from the light: in shadow, and it casts nothing the lit side does not
+            // ([`LightFrame::unlit`]).
+            return true;
+        }
         let Some(t) = map.texel_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) else {
-            return k == 0;
+            return false;
         };
         let nearest = *t;
         *t = nearest.min(self.depth16::<false>(p[2]));
-        k == 0 || nearest < self.depth16::<false>(p[2] - self.derived.slope[row][usize::from(k)])
+        nearest < self.depth16::<false>(p[2] - self.derived.slope[row][usize::from(k)])
     }
 
     /// Whether every sample below a cell with normal `code` and cone `class` faces away from
@@ -161,12 +166,18 @@ impl OnePass<'_, '_, '_> {
     /// Fills the footprints of the children `mask` of a cell at `level` (= `S − 1`) at `p`.
     #[inline]
     fn fill_children(&mut self, level: usize, p: LightPos, mask: u32) {
+        let light = self.light;
+        let disp = &light.disp[level + 1];
+        let mut texels = self.map.texels();
         let mut m = mask;
         while m != 0 {
-            let s = m.trailing_zeros() as usize;
+            let s = m.trailing_zeros() as usize & 31;
             m &= m - 1;
-            let cp = self.light.step(p, level + 1, s);
-            self.light.cast_centre(self.map, cp);
+            let d = disp[s];
+            let (u, v) = ((p[0] + d[0]) >> LIGHT_FRAC, (p[1] + d[1]) >> LIGHT_FRAC);
+            if let Some(t) = texels.at_mut(u, v) {
+                *t = (*t).min(light.depth16::<false>(p[2] + d[2]));
+            }
         }
     }
 }
@@ -174,6 +185,7 @@ impl OnePass<'_, '_, '_> {
 impl ShadowHooks for OnePass<'_, '_, '_> {
     type Pos = LightPos;
     const FILL_CULLED: bool = true;
+    const TESTS_FIRST: bool = true;
     /// Light order only above the level `S − 1` whose children are the stop level `S`'s cells:
     /// below, a cell is at most a texel and fills its one texel when it is done
     /// ([`ShadowHooks::descended`]), so its descendants are tested before it fills and the order
@@ -208,9 +220,56 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
         if level == self.light.stop_level {
             return self.light.test_and_fill(self.map, level, p, attr);
         }
+        if self.light.derived.facing[usize::from(attr) & (NORMAL_COUNT - 1)] == 0 {
+            // Turned from the light: in shadow, and it casts nothing the lit side does not
+            // ([`LightFrame::unlit`]).
+            return true;
+        }
         let shadowed = self.light.in_shadow::<false>(self.map, level, p, attr);
         if level < self.light.stop_level {
             self.light.cast::<false>(self.map, level, p);
+        }
+        shadowed
+    }
+    /// At the stop level (nearly every drawn child of a frame), one loop with the light's
+    /// tables looked up once, each child tested and filled as [`LightFrame::test_and_fill`]
+    /// does; elsewhere [`OnePass::drawn`] for each.
+    #[inline(always)]
+    fn drawn_children(
+        &mut self,
+        parent: LightPos,
+        level: usize,
+        mask: u32,
+        attr: impl Fn(u32) -> u16,
+    ) -> u32 {
+        let light = self.light;
+        if level != light.stop_level {
+            return drawn_each(self, parent, level, mask, attr);
+        }
+        let disp = &light.disp[level];
+        let slope = &light.derived.slope[level];
+        let facing = &light.derived.facing;
+        let mut texels = self.map.texels();
+        let mut shadowed = 0;
+        let mut i = 0;
+        let mut m = mask;
+        while m != 0 {
+            let s = m.trailing_zeros() as usize & 31;
+            m &= m - 1;
+            let k = facing[usize::from(attr(i)) & (NORMAL_COUNT - 1)];
+            i += 1;
+            if k == 0 {
+                shadowed |= 1 << s;
+                continue;
+            }
+            let d = disp[s];
+            let p = [parent[0] + d[0], parent[1] + d[1], parent[2] + d[2]];
+            if let Some(t) = texels.at_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) {
+                let nearest = *t;
+                *t = nearest.min(light.depth16::<false>(p[2]));
+                let biased = light.depth16::<false>(p[2] - slope[usize::from(k)]);
+                shadowed |= u32::from(nearest < biased) << s;
+            }
         }
         shadowed
     }

@@ -114,6 +114,7 @@ pub(crate) struct PassHooks<'a, H> {
 impl<H: ShadowHooks> ShadowHooks for PassHooks<'_, H> {
     type Pos = H::Pos;
     const FILL_CULLED: bool = H::FILL_CULLED;
+    const TESTS_FIRST: bool = H::TESTS_FIRST;
     #[inline(always)]
     fn ordered(&self, level: usize) -> bool {
         self.inner.ordered(level)
@@ -133,6 +134,20 @@ impl<H: ShadowHooks> ShadowHooks for PassHooks<'_, H> {
     #[inline(always)]
     fn drawn(&mut self, level: usize, p: H::Pos, attr: u16) -> bool {
         self.drawing.get() && self.inner.drawn(level, p, attr)
+    }
+    #[inline(always)]
+    fn drawn_children(
+        &mut self,
+        parent: H::Pos,
+        level: usize,
+        mask: u32,
+        attr: impl Fn(u32) -> u16,
+    ) -> u32 {
+        if self.drawing.get() {
+            self.inner.drawn_children(parent, level, mask, attr)
+        } else {
+            0
+        }
     }
     #[inline(always)]
     fn casts(&mut self, level: usize, p: H::Pos) {

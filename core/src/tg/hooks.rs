@@ -19,6 +19,12 @@ pub trait ShadowHooks {
     }
     /// Keep walking subtrees the view culls, to fill the shadow map with what they cast.
     const FILL_CULLED: bool;
+    /// Whether the walk's flat loops over a cell's children test them all first, in a loop of
+    /// their own ([`ShadowHooks::drawn_children`]), before the view draws any: for hooks where
+    /// every child casts, drawn or not (one-pass shadows), so that the light's registers stay out
+    /// of the view's loop. Otherwise the view tests each child it draws as it draws it
+    /// ([`ShadowHooks::drawn`]) and the others only cast ([`ShadowHooks::casts`]).
+    const TESTS_FIRST: bool = false;
     /// Light-space position of the root cell.
     fn root(&self) -> Self::Pos;
     /// Light-space position of child `slot` of a cell at `level - 1` at `parent`.
@@ -31,6 +37,23 @@ pub trait ShadowHooks {
     /// A sample drawn in the view, with attribute `attr`: returns whether it is in shadow (and may
     /// fill the map).
     fn drawn(&mut self, level: usize, p: Self::Pos, attr: u16) -> bool;
+    /// The children (the slots of `mask`, child bits only) of a cell at `level - 1` with
+    /// light-space position `parent`, each as a sample drawn with attribute `attr(i)` (`i`: its
+    /// rank among them), in slot order: the slots of those in shadow. By default
+    /// [`ShadowHooks::drawn`] for each ([`drawn_each`]).
+    #[inline(always)]
+    fn drawn_children(
+        &mut self,
+        parent: Self::Pos,
+        level: usize,
+        mask: u32,
+        attr: impl Fn(u32) -> u16,
+    ) -> u32
+    where
+        Self: Sized,
+    {
+        drawn_each(self, parent, level, mask, attr)
+    }
     /// A sample that casts but is not drawn (backfacing, or in a culled subtree): fill only.
     fn casts(&mut self, level: usize, p: Self::Pos);
     /// Whether a subtree the view does not draw, whose cell has normal `code` and cone `class`
@@ -51,6 +74,28 @@ pub trait ShadowHooks {
     /// visited by the view walk.
     #[inline(always)]
     fn descended(&mut self, _level: usize, _p: Self::Pos, _mask: u32) {}
+}
+
+/// [`ShadowHooks::drawn_children`] as [`ShadowHooks::drawn`] for each child.
+#[inline(always)]
+pub(crate) fn drawn_each<H: ShadowHooks>(
+    hooks: &mut H,
+    parent: H::Pos,
+    level: usize,
+    mask: u32,
+    attr: impl Fn(u32) -> u16,
+) -> u32 {
+    let mut shadowed = 0;
+    let mut i = 0;
+    let mut m = mask;
+    while m != 0 {
+        let s = m.trailing_zeros() as usize & 31;
+        m &= m - 1;
+        let p = hooks.child(parent, level, s);
+        shadowed |= u32::from(hooks.drawn(level, p, attr(i))) << s;
+        i += 1;
+    }
+    shadowed
 }
 
 /// No shadows: every hook is a no-op and the light-space position is `()`.

@@ -10,6 +10,7 @@
 use super::bricked::Bricked;
 use super::frame::{SlotTable, TgFrame, MAX_SLOTS, TO_MODEL_BITS};
 pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
+pub(crate) use super::hooks::drawn_each;
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
@@ -684,7 +685,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             }
         }
         if cc[2] >= fc.linear {
-            if facing == Facing::Towards && !ORDERED {
+            if facing == Facing::Towards {
                 self.draw_children_linear::<true>(next, cm, first, cc, cp);
             } else {
                 self.draw_children_linear::<false>(next, cm, first, cc, cp);
@@ -727,6 +728,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             size_q8,
         } = LinearCell::of(f, n, c);
         let jd = &f.tick_depth[n];
+        let shadowed_slots = self.light_children(n, p, mask, first_child);
         let mut vp = None;
         let tm = f.half_step_model[n];
         let mut child = first_child;
@@ -742,7 +744,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             let code = usize::from(attr & 0x1FFF);
             if !TOWARDS && bit(&f.backface, code) {
                 count!(self.stats.backfacing += 1);
-                self.hooks.casts(n, cp);
+                self.casts_unless_tested(n, cp);
                 continue;
             }
             // The splat's offset from the cell's centre, Q6 ticks: the slot, ρ·(2i − (ρ − 1)),
@@ -768,7 +770,7 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
             if x1 <= x0 || y1 <= y0 {
                 // It would draw nothing: no test, no depth (it still casts).
                 count!(self.stats.splats += 1);
-                self.hooks.casts(n, cp);
+                self.casts_unless_tested(n, cp);
                 continue;
             }
             if !front {
@@ -778,11 +780,15 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 let facing = normal_dot(nq, v);
                 if facing > 0 {
                     count!(self.stats.backfacing += 1);
-                    self.hooks.casts(n, cp);
+                    self.casts_unless_tested(n, cp);
                     continue;
                 }
             }
-            let shadowed = self.hooks.drawn(n, cp, attr);
+            let shadowed = if H::TESTS_FIRST {
+                shadowed_slots >> s & 1 != 0
+            } else {
+                self.hooks.drawn(n, cp, attr)
+            };
             let depth = ((dp + dot(jd)).clamp(0, 65534 << 8) >> 8) as u16;
             count!(self.stats.splats += 1);
             count!(self.stats.shadowed += u32::from(shadowed));
@@ -799,6 +805,33 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
                 exact: true,
             };
             Self::emit(self.sink, &splat, [x0, x1, y0, y1]);
+        }
+    }
+
+    /// The light's side of [`Walker::draw_children_linear`]: every child of the cell (light-space
+    /// `p`, children from `first_child` at level `n`) tested and cast as a drawn sample
+    /// ([`ShadowHooks::drawn`]), in slot order, before the view draws any; the slots of those
+    /// in shadow. A child the view does not draw (backfacing, or covering no pixel) takes the
+    /// same fill as a drawn one and its test is not read, so the map ends as when each child
+    /// cast or was tested as the view met it: the same frame, with the light's registers kept out
+    /// of the view's loop (one-pass std 1 px: they spilled the light position twice a child).
+    #[inline(always)]
+    fn light_children(&mut self, n: usize, p: H::Pos, mask: u32, first_child: u32) -> u32 {
+        if !H::TESTS_FIRST {
+            return 0;
+        }
+        let next = n as u8;
+        let data = &self.data;
+        self.hooks
+            .drawn_children(p, n, mask & Self::SLOT_BITS, |i| data.attr(next, first_child + i))
+    }
+
+    /// A child of [`Walker::draw_children_linear`] that the view does not draw casts, unless
+    /// [`Walker::light_children`] cast it with the others.
+    #[inline(always)]
+    fn casts_unless_tested(&mut self, n: usize, cp: H::Pos) {
+        if !H::TESTS_FIRST {
+            self.hooks.casts(n, cp);
         }
     }
 
