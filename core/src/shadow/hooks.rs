@@ -7,7 +7,7 @@ use super::light::{LightFrame, LightPos};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
-use crate::tg::traverse::{drawn_each, ShadowHooks, SlotOrder};
+use crate::tg::traverse::{drawn_each, each_slot, ShadowHooks, SlotOrder};
 
 /// By normal-cone class ([`crate::tg::frame::CONE_ANGLES_DEG`]): a cell whose normal `n` has
 /// `n · l` (Q14 × Q14, `l` the direction to the light) below this faces away from the light at
@@ -251,16 +251,11 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
         let facing = &light.derived.facing;
         let mut texels = self.map.texels();
         let mut shadowed = 0;
-        let mut i = 0;
-        let mut m = mask;
-        while m != 0 {
-            let s = m.trailing_zeros() as usize & 31;
-            m &= m - 1;
+        each_slot(mask, |i, s| {
             let k = facing[usize::from(attr(i)) & (NORMAL_COUNT - 1)];
-            i += 1;
             if k == 0 {
                 shadowed |= 1 << s;
-                continue;
+                return;
             }
             let d = disp[s];
             let p = [parent[0] + d[0], parent[1] + d[1], parent[2] + d[2]];
@@ -270,7 +265,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
                 let biased = light.depth16::<false>(p[2] - slope[usize::from(k)]);
                 shadowed |= u32::from(nearest < biased) << s;
             }
-        }
+        });
         shadowed
     }
     /// As [`OnePass::drawn`] without the test.

@@ -86,16 +86,24 @@ pub(crate) fn drawn_each<H: ShadowHooks>(
     attr: impl Fn(u32) -> u16,
 ) -> u32 {
     let mut shadowed = 0;
+    each_slot(mask, |i, s| {
+        let p = hooks.child(parent, level, s);
+        shadowed |= u32::from(hooks.drawn(level, p, attr(i))) << s;
+    });
+    shadowed
+}
+
+/// `visit(i, s)` for each set bit `s` of `mask`, lowest first, `i` its rank (0, 1, …).
+#[inline(always)]
+pub(crate) fn each_slot(mask: u32, mut visit: impl FnMut(u32, usize)) {
     let mut i = 0;
     let mut m = mask;
     while m != 0 {
         let s = m.trailing_zeros() as usize & 31;
         m &= m - 1;
-        let p = hooks.child(parent, level, s);
-        shadowed |= u32::from(hooks.drawn(level, p, attr(i))) << s;
+        visit(i, s);
         i += 1;
     }
-    shadowed
 }
 
 /// No shadows: every hook is a no-op and the light-space position is `()`.

@@ -10,7 +10,7 @@
 use super::bricked::Bricked;
 use super::frame::{SlotTable, TgFrame, MAX_SLOTS, TO_MODEL_BITS};
 pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
-pub(crate) use super::hooks::drawn_each;
+pub(crate) use super::hooks::{drawn_each, each_slot};
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
