@@ -9,8 +9,8 @@
 
 use super::bricked::Bricked;
 use super::frame::{SlotTable, TgFrame, MAX_SLOTS, TO_MODEL_BITS};
-pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
 pub(crate) use super::hooks::{drawn_each, each_slot};
+pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
 use super::MAX_LEVELS;
@@ -823,7 +823,9 @@ impl<'f, 'h, 's, D: NodeData, S: SplatSink, H: ShadowHooks, const RHO: u8>
         let next = n as u8;
         let data = &self.data;
         self.hooks
-            .drawn_children(p, n, mask & Self::SLOT_BITS, |i| data.attr(next, first_child + i))
+            .drawn_children(p, n, mask & Self::SLOT_BITS, |i| {
+                data.attr(next, first_child + i)
+            })
     }
 
     /// A child of [`Walker::draw_children_linear`] that the view does not draw casts, unless
