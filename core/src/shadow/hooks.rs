@@ -7,7 +7,8 @@ use super::light::{LightFrame, LightPos};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
-use crate::tg::traverse::{drawn_each, each_slot, ShadowHooks, SlotOrder};
+use crate::tg::hooks::{drawn_each, each_slot};
+use crate::tg::traverse::{ShadowHooks, SlotOrder};
 
 /// By normal-cone class ([`crate::tg::frame::CONE_ANGLES_DEG`]): a cell whose normal `n` has
 /// `n · l` (Q14 × Q14, `l` the direction to the light) below this faces away from the light at

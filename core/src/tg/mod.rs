@@ -11,7 +11,7 @@ mod error;
 #[doc(hidden)]
 pub mod frame;
 mod header;
-mod hooks;
+pub(crate) mod hooks;
 mod nodes;
 pub mod read;
 #[doc(hidden)]

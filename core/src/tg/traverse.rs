@@ -9,7 +9,6 @@
 
 use super::bricked::Bricked;
 use super::frame::{SlotTable, TgFrame, MAX_SLOTS, TO_MODEL_BITS};
-pub(crate) use super::hooks::{drawn_each, each_slot};
 pub use super::hooks::{NoShadows, ShadowHooks, SlotOrder};
 pub use super::nodes::{NodeData, Resident};
 use super::read::TriGrid;
