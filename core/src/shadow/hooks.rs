@@ -233,7 +233,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
         shadowed
     }
     /// At the stop level (nearly every drawn child of a frame), one loop with the light's
-    /// tables looked up once, each child tested and filled as [`LightFrame::test_and_fill`]
+    /// tables looked up once, each child tested and filled as `LightFrame::test_and_fill`
     /// does; elsewhere [`OnePass::drawn`] for each.
     #[inline(always)]
     fn drawn_children(

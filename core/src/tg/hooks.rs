@@ -40,7 +40,7 @@ pub trait ShadowHooks {
     /// The children (the slots of `mask`, child bits only) of a cell at `level - 1` with
     /// light-space position `parent`, each as a sample drawn with attribute `attr(i)` (`i`: its
     /// rank among them), in slot order: the slots of those in shadow. By default
-    /// [`ShadowHooks::drawn`] for each ([`drawn_each`]).
+    /// [`ShadowHooks::drawn`] for each.
     #[inline(always)]
     fn drawn_children(
         &mut self,
