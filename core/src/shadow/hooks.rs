@@ -25,6 +25,15 @@ pub(super) const UNLIT_Q28: [i32; 8] = [
     i32::MIN,
 ];
 
+/// Whether a texel holding `nearest` shadows a directional light's sample at Q8 depth `d`, with
+/// `behind` from `Derived::behind` (its bias plus one map unit): `nearest < depth16(d − bias)`,
+/// compared in Q8 without clamping `d − bias` (the same answer for every depth in the root cube,
+/// whose extent along the light the map's 16 bits span), two instructions fewer a sample.
+#[inline(always)]
+fn behind(nearest: u16, d: i32, behind: i32) -> bool {
+    (i32::from(nearest) << LIGHT_FRAC) + behind <= d
+}
+
 impl LightFrame {
     /// Map position of a light-space position: texel coordinates (Q8) and, for a point light, the
     /// reciprocal of `W` to scale extents with.
@@ -50,7 +59,7 @@ impl LightFrame {
             let dz = (d - pd.depth_w0).max(0) as u64;
             ((dz * pd.depth_scale) >> 32).min(65534) as u16
         } else {
-            (d >> LIGHT_FRAC).clamp(0, 65534) as u16
+            (d >> LIGHT_FRAC).clamp(0, 65535) as u16
         }
     }
 
@@ -68,13 +77,14 @@ impl LightFrame {
         if k == 0 {
             return true;
         }
-        let bias = if POINT {
-            self.bias_at::<true>(row - 1, p[2], usize::from(k - 1))
-        } else {
-            self.derived.slope[row][usize::from(k)]
-        };
         let (u, v, _) = Self::texel::<POINT>(p);
-        map.at(u >> LIGHT_FRAC, v >> LIGHT_FRAC) < self.depth16::<POINT>(p[2] - bias)
+        let nearest = map.at(u >> LIGHT_FRAC, v >> LIGHT_FRAC);
+        if POINT {
+            let bias = self.bias_at::<true>(row - 1, p[2], usize::from(k - 1));
+            nearest < self.depth16::<POINT>(p[2] - bias)
+        } else {
+            behind(nearest, p[2], self.derived.behind[row][usize::from(k)])
+        }
     }
 
     /// Fills the footprint of a cell at `level`, light-space `p`.
@@ -136,7 +146,7 @@ impl LightFrame {
         };
         let nearest = *t;
         *t = nearest.min(self.depth16::<false>(p[2]));
-        nearest < self.depth16::<false>(p[2] - self.derived.slope[row][usize::from(k)])
+        behind(nearest, p[2], self.derived.behind[row][usize::from(k)])
     }
 
     /// Whether every sample below a cell with normal `code` and cone `class` faces away from
@@ -248,7 +258,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
             return drawn_each(self, parent, level, mask, attr);
         }
         let disp = &light.disp[level];
-        let slope = &light.derived.slope[level];
+        let behind_at = &light.derived.behind[level];
         let facing = &light.derived.facing;
         let mut texels = self.map.texels();
         let mut shadowed = 0;
@@ -263,8 +273,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
             if let Some(t) = texels.at_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) {
                 let nearest = *t;
                 *t = nearest.min(light.depth16::<false>(p[2]));
-                let biased = light.depth16::<false>(p[2] - slope[usize::from(k)]);
-                shadowed |= u32::from(nearest < biased) << s;
+                shadowed |= u32::from(behind(nearest, p[2], behind_at[usize::from(k)])) << s;
             }
         });
         shadowed

@@ -86,15 +86,17 @@ pub(super) struct Derived {
     /// By normal code: 0 when the normal faces away from the light (`n·l ≤ 0`), else 1 + the
     /// `tan_q8` index of its `n·l`.
     pub(super) facing: [u8; NORMAL_COUNT],
-    /// Directional lights: the whole depth bias by row and `facing` value; row `l + 1` is level
-    /// `l`, and row 0 is level 0 again, so that one-pass's "as for the parent's level" is row `l`.
-    pub(super) slope: [[i32; 66]; MAX_LEVELS + 1],
+    /// Directional lights: by row and `facing` value, how far (Q8 depth) a sample must lie
+    /// behind a texel's depth to be in its shadow: the whole depth bias plus one map unit
+    /// (what `hooks::behind` compares). Row `l + 1` is level `l`, and row 0 is level 0 again, so that one-pass's
+    /// "as for the parent's level" is row `l`.
+    pub(super) behind: [[i32; 66]; MAX_LEVELS + 1],
 }
 
 impl Derived {
     const EMPTY: Derived = Derived {
         facing: [0; NORMAL_COUNT],
-        slope: [[0; 66]; MAX_LEVELS + 1],
+        behind: [[0; 66]; MAX_LEVELS + 1],
     };
 }
 
@@ -441,7 +443,8 @@ impl LightFrame {
             for row in 0..=MAX_LEVELS {
                 let level = row.max(1) - 1;
                 for k in 1..66 {
-                    self.derived.slope[row][k] = self.bias_at::<false>(level, 0, k - 1);
+                    self.derived.behind[row][k] =
+                        self.bias_at::<false>(level, 0, k - 1) + (1 << LIGHT_FRAC);
                 }
             }
         }
