@@ -59,6 +59,8 @@ impl LightFrame {
             let dz = (d - pd.depth_w0).max(0) as u64;
             ((dz * pd.depth_scale) >> 32).min(65534) as u16
         } else {
+            // Saturating to the full 16 bits is one `usat` on Armv7-M (to 65534 it was five
+            // instructions a sample); a depth at 65535 casts nothing, as the cleared map.
             (d >> LIGHT_FRAC).clamp(0, 65535) as u16
         }
     }
