@@ -418,10 +418,7 @@ fn render_shadowed<O: Objects, S: SplatSink>(
             let mut test = TwoPass::<false> { light, map: &map };
             objects.draw_grid(i, &frame, &mut test, &mut s)
         } else {
-            let mut one = OnePass {
-                light,
-                map: &mut map,
-            };
+            let mut one = OnePass::new(light, &mut map, &frame);
             objects.draw_grid(i, &frame, &mut one, &mut s)
         };
         add(&mut stats.total, &st);
