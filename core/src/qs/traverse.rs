@@ -420,18 +420,35 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         let f = self.frame;
         let [x, y, w] = s.xyw;
         let (rc, shift) = recip(w as u32);
-        let rc64 = i64::from(rc);
         let sh = shift - SUBPIXEL_BITS;
-        let half = 1i64 << (sh - 1);
-        let x_q8 = ((i64::from(x) * rc64 + half) >> sh) as i32;
-        let y_q8 = ((i64::from(y) * rc64 + half) >> sh) as i32;
+        let (x_q8, y_q8) = if sh > 32 {
+            // `(p + 2^(sh−1)) >> sh` from the product's high word `h` alone: `h >> t` plus bit
+            // `t − 1` of `h` (`t = sh − 32`), the same rounding without 64-bit shifts.
+            let t = sh - 32;
+            let hi = |v: i32| ((i64::from(v) * i64::from(rc)) >> 32) as i32;
+            let round = |h: i32| (h >> t) + (h >> (t - 1) & 1);
+            (round(hi(x)), round(hi(y)))
+        } else {
+            let rc64 = i64::from(rc);
+            let half = 1i64 << (sh - 1);
+            (
+                ((i64::from(x) * rc64 + half) >> sh) as i32,
+                ((i64::from(y) * rc64 + half) >> sh) as i32,
+            )
+        };
         // size · W in Q8, then divided by W through the reciprocal.
         let q = self.tf.size.apply(s.r.max(0) as u32);
-        let extra = (64 - q.leading_zeros()).saturating_sub(32);
-        let size_q8 = if shift > extra {
-            (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
+        let size_q8 = if q >> 32 == 0 && shift >= 32 {
+            // The floor of the high word's floor is the floor.
+            let h = ((q * u64::from(rc)) >> 32) as u32 >> (shift - 32);
+            h.min(i32::MAX as u32) as i32
         } else {
-            i32::MAX
+            let extra = (64 - q.leading_zeros()).saturating_sub(32);
+            if shift > extra {
+                (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
+            } else {
+                i32::MAX
+            }
         };
         let dz = (w - f.depth_w0).max(0) as u64;
         let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
