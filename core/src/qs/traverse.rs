@@ -6,7 +6,7 @@
 
 use super::frame::{QsFrame, TreeFrame, ROOT_RADIUS, T_BITS};
 use super::read::{Children, Group, Node, QSplat, Tree, TreeHead};
-use super::table::{unpack, SPHERES};
+use super::table::SPHERES;
 use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
 use crate::fixed::{recip, SUBPIXEL_BITS};
 use crate::frame::Walk;
@@ -294,20 +294,23 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         mut flags: Flags,
     ) {
         count!(self.stats.nodes_visited += 1);
-        // Validated below 7621; the parent's own sphere otherwise.
-        let e = unpack(
+        // Validated below 7621; the parent's own sphere otherwise. Packed `s, x, y, z`
+        // (QSplat §3.1): the displacement tables are indexed by `s + 2x = a + 13`.
+        let p = u32::from(
             SPHERES
                 .get(usize::from(node.sphere))
                 .copied()
                 .unwrap_or(0xD000),
         );
-        let (a, b, c) = (i32::from(e.a), i32::from(e.b), i32::from(e.c));
-        let t = &self.tf.t;
-        let (ta, tb, tc) = (
-            &t[0][(a + 12) as usize],
-            &t[1][(b + 12) as usize],
-            &t[2][(c + 12) as usize],
+        let s13 = p >> 12;
+        let (ia, ib, ic) = (
+            (s13 + (p >> 7 & 30)) as usize & 31,
+            (s13 + (p >> 3 & 30)) as usize & 31,
+            (s13 + (p << 1 & 30)) as usize & 31,
         );
+        let (a, b, c) = (ia as i32 - 13, ib as i32 - 13, ic as i32 - 13);
+        let t = &self.tf.t;
+        let (ta, tb, tc) = (&t[0][ia], &t[1][ib], &t[2][ic]);
         // Wrapping: a valid tree stays far inside i32 (every centre lies within about one root radius
         // of the root's); a hostile one draws garbage but cannot overflow. The table sum fits an
         // i32 whatever the file holds (each entry is at most 12 model integers times a row of at
@@ -333,7 +336,7 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
                 parent.xyw[1].wrapping_add(step(1)),
                 parent.xyw[2].wrapping_add(step(2)),
             ],
-            r: i32::from(e.s).wrapping_mul(r13),
+            r: (s13 as i32).wrapping_mul(r13),
         };
         if !flags.inside {
             match self.frustum(&s) {
@@ -392,26 +395,31 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         let v: [i64; 3] = core::array::from_fn(|k| {
             i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim))
         });
-        let d = (v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2])) >> 14;
+        // |v| ≤ 2²⁴ per axis and |n| ≤ 2¹⁴: `d`, `r` and `d ± r` fit an `i32` (below 2²⁷).
+        let d = ((v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2]))
+            >> 14) as i32;
         // Radius in backface units, rounded up, plus the Q14 normal's error (|v|₁ / 2¹³).
-        let slack = (v[0].abs() + v[1].abs() + v[2].abs()) >> 13;
-        let r = (i64::from(s.r.max(0)) >> tf.bshift) + 2 + slack;
-        let r = r.min(i64::from(lim));
+        let slack = ((v[0].abs() + v[1].abs() + v[2].abs()) >> 13) as i32;
+        let r = (s.r.max(0) >> tf.bshift).saturating_add(2 + slack).min(lim);
+        let e = if d < -r {
+            d + r
+        } else if d > r {
+            d - r
+        } else {
+            return Cone::Unknown;
+        };
         let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
         // sin²θ ≤ ((c + 1)/4)⁴ = k/256.
         let k = [1i64, 16, 81][usize::from(node.cone.min(2))];
-        if d < -r {
-            let e = d + r;
-            if 256 * e * e > k * d2 {
-                return Cone::Away;
+        if 256 * i64::from(e) * i64::from(e) > k * d2 {
+            if d < 0 {
+                Cone::Away
+            } else {
+                Cone::Facing
             }
-        } else if d > r {
-            let e = d - r;
-            if 256 * e * e > k * d2 {
-                return Cone::Facing;
-            }
+        } else {
+            Cone::Unknown
         }
-        Cone::Unknown
     }
 
     /// The splat of node `node` at `at` with sphere `s`.
