@@ -393,7 +393,8 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         let tf = self.tf;
         let lim = 1i32 << 24;
         let v: [i64; 3] = core::array::from_fn(|k| {
-            i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim))
+            // To `[−2²⁴, 2²⁴)`: one `ssat` on ARM (a valid tree's vectors are inside).
+            i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim - 1))
         });
         // |v| ≤ 2²⁴ per axis and |n| ≤ 2¹⁴: `d`, `r` and `d ± r` fit an `i32` (below 2²⁷).
         let d = ((v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2]))
