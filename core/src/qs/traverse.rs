@@ -151,6 +151,9 @@ struct Sphere {
     r: i32,
 }
 
+/// `256 · sin²θ` bounds of the cone codes 0–2 (code 3, never culled, is not tested).
+static CONE_K: [i32; 4] = [1, 16, 81, 81];
+
 /// Frustum tests off (the node is wholly inside) / backface tests off (the cone faces the eye).
 #[derive(Clone, Copy)]
 struct Flags {
@@ -392,15 +395,18 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         };
         let tf = self.tf;
         let lim = 1i32 << 24;
-        let v: [i64; 3] = core::array::from_fn(|k| {
-            // To `[−2²⁴, 2²⁴)`: one `ssat` on ARM (a valid tree's vectors are inside).
-            i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim - 1))
+        // To `[−2²⁴, 2²⁴)`: one `ssat` on ARM (a valid tree's vectors are inside). Each fits an
+        // `i32`, and so does `|v|₁`; only the products take 64 bits.
+        let v: [i32; 3] = core::array::from_fn(|k| {
+            tf.eye[k]
+                .wrapping_sub(s.c[k] >> tf.bshift)
+                .clamp(-lim, lim - 1)
         });
+        let wide = |a: i32, b: i32| i64::from(a) * i64::from(b);
         // |v| ≤ 2²⁴ per axis and |n| ≤ 2¹⁴: `d`, `r` and `d ± r` fit an `i32` (below 2²⁷).
-        let d = ((v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2]))
-            >> 14) as i32;
+        let d = ((wide(v[0], n[0]) + wide(v[1], n[1]) + wide(v[2], n[2])) >> 14) as i32;
         // Radius in backface units, rounded up, plus the Q14 normal's error (|v|₁ / 2¹³).
-        let slack = ((v[0].abs() + v[1].abs() + v[2].abs()) >> 13) as i32;
+        let slack = (v[0].abs() + v[1].abs() + v[2].abs()) >> 13;
         let r = (s.r.max(0) >> tf.bshift).saturating_add(2 + slack).min(lim);
         let e = if d < -r {
             d + r
@@ -409,10 +415,10 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         } else {
             return Cone::Unknown;
         };
-        let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        let d2 = wide(v[0], v[0]) + wide(v[1], v[1]) + wide(v[2], v[2]);
         // sin²θ ≤ ((c + 1)/4)⁴ = k/256.
-        let k = [1i64, 16, 81][usize::from(node.cone.min(2))];
-        if 256 * i64::from(e) * i64::from(e) > k * d2 {
+        let k = CONE_K[usize::from(node.cone & 3)];
+        if 256 * wide(e, e) > i64::from(k) * d2 {
             if d < 0 {
                 Cone::Away
             } else {
