@@ -250,8 +250,8 @@ impl<const W: usize, const H: usize> DepthTarget for Framebuffer<'_, W, H> {
         }
     }
 
-    /// Most rows of a square splat are one or two pixels long (a splat of 2 px or less covering two
-    /// pixel centres), which the match writes without a loop.
+    /// Most rows of a square splat are one to four pixels long (a splat of 2 px or less covering two
+    /// pixel centres; a QSplat leaf), which the match writes without a loop.
     #[inline(always)]
     fn put_span(&mut self, y: usize, x0: usize, x1: usize, depth: u16, color: u16) -> u32 {
         let mut written = 0;
@@ -268,6 +268,18 @@ impl<const W: usize, const H: usize> DepthTarget for Framebuffer<'_, W, H> {
             ([c0, c1], [d0, d1]) => {
                 put(c0, d0);
                 put(c1, d1);
+            }
+            // A QSplat leaf at a 1 px cutoff is two to four pixels across: its rows likewise.
+            ([c0, c1, c2], [d0, d1, d2]) => {
+                put(c0, d0);
+                put(c1, d1);
+                put(c2, d2);
+            }
+            ([c0, c1, c2, c3], [d0, d1, d2, d3]) => {
+                put(c0, d0);
+                put(c1, d1);
+                put(c2, d2);
+                put(c3, d3);
             }
             (crow, drow) => crow.iter_mut().zip(drow).for_each(|(c, d)| put(c, d)),
         }

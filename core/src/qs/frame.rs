@@ -54,7 +54,14 @@ impl Scale {
     /// `(x · k)`, rounded down.
     #[inline(always)]
     pub fn apply(self, x: u32) -> u64 {
-        (u64::from(x) * u64::from(self.m)) >> self.sh
+        let p = u64::from(x) * u64::from(self.m);
+        // A frame's scales are small (`sh ≥ 32`): the high word shifted, which is the same floor
+        // without a 64-bit shift by a variable (a dozen instructions on thumbv7m).
+        if self.sh >= 32 {
+            u64::from(((p >> 32) as u32) >> (self.sh - 32))
+        } else {
+            p >> self.sh
+        }
     }
 
     /// The constant this stands for.
@@ -111,8 +118,10 @@ pub struct QsFrame {
 pub struct TreeFrame {
     /// `(X, Y, W)` of the root centre.
     pub(crate) root: [i32; 3],
-    /// `T[axis][a + 12]`: `(X, Y, W)` of `a` model integers along `axis`, Q23.
-    pub(crate) t: [[[i32; 3]; 25]; 3],
+    /// `T[axis][a + 13]`: `(X, Y, W)` of `a` model integers along `axis`, Q23. Indexed by
+    /// `s + 2x` of a table entry (`a = s + 2x − 13`), 32 entries so that an index masked to
+    /// 5 bits needs no bounds check (0 and 26.. are never read).
+    pub(crate) t: [[[i32; 3]; 32]; 3],
     /// Plane extents per model integer of radius: X (left), Y (top), W (near), width·W − X
     /// (right), height·W − Y (bottom).
     pub(crate) ext: [Scale; 5],
@@ -264,7 +273,11 @@ impl QsFrame {
         let g = |k: usize, axis: usize| rows[k][axis] * unit;
         let t = core::array::from_fn(|axis| {
             core::array::from_fn(|i| {
-                let a = i as f64 - 12.0;
+                if !(1..=25).contains(&i) {
+                    // Never read: no soft-float work for them.
+                    return [0; 3];
+                }
+                let a = i as f64 - 13.0;
                 core::array::from_fn(|k| to_i32(a * g(k, axis) * f64::from(1u32 << T_BITS)))
             })
         });

@@ -342,13 +342,19 @@ impl<'a> Tree<'a> {
 /// (FORMAT.md, "Byte order").
 #[inline]
 pub(crate) fn node_at(bytes: &[u8], at: usize, color: bool) -> Node {
-    let (Some(b0), Some(b1)) = (bytes.get(at), bytes.get(at + 1)) else {
-        return Node::default();
+    // The whole record in one read where it is all there (every record of a validated file).
+    let (b0, b1, nc) = match ByteOrder::Big.u32(bytes, at) {
+        Some(w) => ((w >> 24) as u8, (w >> 16) as u8, w as u16),
+        None => {
+            let (Some(b0), Some(b1)) = (bytes.get(at), bytes.get(at + 1)) else {
+                return Node::default();
+            };
+            (*b0, *b1, ByteOrder::Big.u16(bytes, at + 2).unwrap_or(0))
+        }
     };
-    let nc = ByteOrder::Big.u16(bytes, at + 2).unwrap_or(0);
     let code = b1 & 3;
     Node {
-        sphere: u16::from(*b0) << 5 | u16::from(b1 >> 3),
+        sphere: u16::from(b0) << 5 | u16::from(b1 >> 3),
         children: if code == 0 { 0 } else { code + 1 },
         grandchildren: b1 & 4 != 0,
         normal: nc >> 2,

@@ -6,7 +6,7 @@
 
 use super::frame::{QsFrame, TreeFrame, ROOT_RADIUS, T_BITS};
 use super::read::{Children, Group, Node, QSplat, Tree, TreeHead};
-use super::table::{unpack, SPHERES};
+use super::table::SPHERES;
 use super::{normal, QS_MAJOR_Q14, QS_SHADE_CODE, QS_TAN_Q14};
 use crate::fixed::{recip, SUBPIXEL_BITS};
 use crate::frame::Walk;
@@ -151,6 +151,9 @@ struct Sphere {
     r: i32,
 }
 
+/// `256 · sin²θ` bounds of the cone codes 0–2 (code 3, never culled, is not tested).
+static CONE_K: [i32; 4] = [1, 16, 81, 81];
+
 /// Frustum tests off (the node is wholly inside) / backface tests off (the cone faces the eye).
 #[derive(Clone, Copy)]
 struct Flags {
@@ -294,20 +297,23 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         mut flags: Flags,
     ) {
         count!(self.stats.nodes_visited += 1);
-        // Validated below 7621; the parent's own sphere otherwise.
-        let e = unpack(
+        // Validated below 7621; the parent's own sphere otherwise. Packed `s, x, y, z`
+        // (QSplat §3.1): the displacement tables are indexed by `s + 2x = a + 13`.
+        let p = u32::from(
             SPHERES
                 .get(usize::from(node.sphere))
                 .copied()
                 .unwrap_or(0xD000),
         );
-        let (a, b, c) = (i32::from(e.a), i32::from(e.b), i32::from(e.c));
-        let t = &self.tf.t;
-        let (ta, tb, tc) = (
-            &t[0][(a + 12) as usize],
-            &t[1][(b + 12) as usize],
-            &t[2][(c + 12) as usize],
+        let s13 = p >> 12;
+        let (ia, ib, ic) = (
+            (s13 + (p >> 7 & 30)) as usize & 31,
+            (s13 + (p >> 3 & 30)) as usize & 31,
+            (s13 + (p << 1 & 30)) as usize & 31,
         );
+        let (a, b, c) = (ia as i32 - 13, ib as i32 - 13, ic as i32 - 13);
+        let t = &self.tf.t;
+        let (ta, tb, tc) = (&t[0][ia], &t[1][ib], &t[2][ic]);
         // Wrapping: a valid tree stays far inside i32 (every centre lies within about one root radius
         // of the root's); a hostile one draws garbage but cannot overflow. The table sum fits an
         // i32 whatever the file holds (each entry is at most 12 model integers times a row of at
@@ -333,7 +339,7 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
                 parent.xyw[1].wrapping_add(step(1)),
                 parent.xyw[2].wrapping_add(step(2)),
             ],
-            r: i32::from(e.s).wrapping_mul(r13),
+            r: (s13 as i32).wrapping_mul(r13),
         };
         if !flags.inside {
             match self.frustum(&s) {
@@ -389,29 +395,38 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         };
         let tf = self.tf;
         let lim = 1i32 << 24;
-        let v: [i64; 3] = core::array::from_fn(|k| {
-            i64::from(tf.eye[k].wrapping_sub(s.c[k] >> tf.bshift).clamp(-lim, lim))
+        // To `[−2²⁴, 2²⁴)`: one `ssat` on ARM (a valid tree's vectors are inside). Each fits an
+        // `i32`, and so does `|v|₁`; only the products take 64 bits.
+        let v: [i32; 3] = core::array::from_fn(|k| {
+            tf.eye[k]
+                .wrapping_sub(s.c[k] >> tf.bshift)
+                .clamp(-lim, lim - 1)
         });
-        let d = (v[0] * i64::from(n[0]) + v[1] * i64::from(n[1]) + v[2] * i64::from(n[2])) >> 14;
+        let wide = |a: i32, b: i32| i64::from(a) * i64::from(b);
+        // |v| ≤ 2²⁴ per axis and |n| ≤ 2¹⁴: `d`, `r` and `d ± r` fit an `i32` (below 2²⁷).
+        let d = ((wide(v[0], n[0]) + wide(v[1], n[1]) + wide(v[2], n[2])) >> 14) as i32;
         // Radius in backface units, rounded up, plus the Q14 normal's error (|v|₁ / 2¹³).
         let slack = (v[0].abs() + v[1].abs() + v[2].abs()) >> 13;
-        let r = (i64::from(s.r.max(0)) >> tf.bshift) + 2 + slack;
-        let r = r.min(i64::from(lim));
-        let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        // sin²θ ≤ ((c + 1)/4)⁴ = k/256.
-        let k = [1i64, 16, 81][usize::from(node.cone.min(2))];
-        if d < -r {
-            let e = d + r;
-            if 256 * e * e > k * d2 {
-                return Cone::Away;
-            }
+        let r = (s.r.max(0) >> tf.bshift).saturating_add(2 + slack).min(lim);
+        let e = if d < -r {
+            d + r
         } else if d > r {
-            let e = d - r;
-            if 256 * e * e > k * d2 {
-                return Cone::Facing;
+            d - r
+        } else {
+            return Cone::Unknown;
+        };
+        let d2 = wide(v[0], v[0]) + wide(v[1], v[1]) + wide(v[2], v[2]);
+        // sin²θ ≤ ((c + 1)/4)⁴ = k/256.
+        let k = CONE_K[usize::from(node.cone & 3)];
+        if 256 * wide(e, e) > i64::from(k) * d2 {
+            if d < 0 {
+                Cone::Away
+            } else {
+                Cone::Facing
             }
+        } else {
+            Cone::Unknown
         }
-        Cone::Unknown
     }
 
     /// The splat of node `node` at `at` with sphere `s`.
@@ -420,18 +435,35 @@ impl<N: QsNodes, S: ColorSink> Walker<'_, '_, N, S> {
         let f = self.frame;
         let [x, y, w] = s.xyw;
         let (rc, shift) = recip(w as u32);
-        let rc64 = i64::from(rc);
         let sh = shift - SUBPIXEL_BITS;
-        let half = 1i64 << (sh - 1);
-        let x_q8 = ((i64::from(x) * rc64 + half) >> sh) as i32;
-        let y_q8 = ((i64::from(y) * rc64 + half) >> sh) as i32;
+        let (x_q8, y_q8) = if sh > 32 {
+            // `(p + 2^(sh−1)) >> sh` from the product's high word `h` alone: `h >> t` plus bit
+            // `t − 1` of `h` (`t = sh − 32`), the same rounding without 64-bit shifts.
+            let t = sh - 32;
+            let hi = |v: i32| ((i64::from(v) * i64::from(rc)) >> 32) as i32;
+            let round = |h: i32| (h >> t) + (h >> (t - 1) & 1);
+            (round(hi(x)), round(hi(y)))
+        } else {
+            let rc64 = i64::from(rc);
+            let half = 1i64 << (sh - 1);
+            (
+                ((i64::from(x) * rc64 + half) >> sh) as i32,
+                ((i64::from(y) * rc64 + half) >> sh) as i32,
+            )
+        };
         // size · W in Q8, then divided by W through the reciprocal.
         let q = self.tf.size.apply(s.r.max(0) as u32);
-        let extra = (64 - q.leading_zeros()).saturating_sub(32);
-        let size_q8 = if shift > extra {
-            (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
+        let size_q8 = if q >> 32 == 0 && shift >= 32 {
+            // The floor of the high word's floor is the floor.
+            let h = ((q * u64::from(rc)) >> 32) as u32 >> (shift - 32);
+            h.min(i32::MAX as u32) as i32
         } else {
-            i32::MAX
+            let extra = (64 - q.leading_zeros()).saturating_sub(32);
+            if shift > extra {
+                (((q >> extra) * u64::from(rc)) >> (shift - extra)).min(i32::MAX as u64) as i32
+            } else {
+                i32::MAX
+            }
         };
         let dz = (w - f.depth_w0).max(0) as u64;
         let depth = ((dz * f.depth_scale) >> 32).min(65534) as u16;
