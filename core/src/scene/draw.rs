@@ -418,7 +418,10 @@ fn render_shadowed<O: Objects, S: SplatSink>(
             let mut test = TwoPass::<false> { light, map: &map };
             objects.draw_grid(i, &frame, &mut test, &mut s)
         } else {
-            let mut one = OnePass::new(light, &mut map, &frame);
+            let mut one = OnePass {
+                light,
+                map: &mut map,
+            };
             objects.draw_grid(i, &frame, &mut one, &mut s)
         };
         add(&mut stats.total, &st);

@@ -7,9 +7,7 @@ use super::light::{LightFrame, LightPos};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
-use crate::tg::frame::TgFrame;
 use crate::tg::hooks::{drawn_each, each_slot};
-use crate::tg::MAX_LEVELS;
 use crate::tg::traverse::{ShadowHooks, SlotOrder};
 
 /// By normal-cone class ([`crate::tg::frame::CONE_ANGLES_DEG`]): a cell whose normal `n` has
@@ -175,47 +173,6 @@ impl LightFrame {
 pub struct OnePass<'l, 'm, 'b> {
     pub(crate) light: &'l LightFrame,
     pub(crate) map: &'m mut ShadowMap<'b>,
-    /// Whether a subtree the view does not draw (culled or facing away) casts at `S − 1` as that
-    /// cell's footprint at its centre's depth, not child by child ([`coarse_casts`]).
-    pub(crate) coarse_casts: bool,
-}
-
-/// The largest size on screen, in pixels, of a cell at `S − 1` at the model's nearest point for
-/// which [`OnePass`] casts the subtrees the view does not draw one `S − 1` cell at a time.
-///
-/// Such a cell's footprint (the light-space box of its whole cube, at its centre's depth) reaches
-/// up to half a cell past the surface inside it; the receivers' bias already allows for a
-/// neighbour drawn at `S − 1`, so what shows is that reach, on screen. Measured against ray-cast
-/// shadows (`report shadows`, depth 6, 256² map, 1 px): the bunny's std view (such a cell 4.4 px)
-/// 26.92 → 26.91 dB for 0.54 M instructions fewer on the Cortex-M3 (2 %), its front view (2.7 px)
-/// 28.65 → 28.63 dB, the dragon's front (3.6 px) 26.35 → 26.34 dB; close up (the camera inside
-/// the root cube) the bunny lost 0.19 dB (28.43 → 28.24), so there, and for the dragon's std view
-/// (6.4 px), the children fill.
-const COARSE_CAST_PX: u32 = 6;
-
-/// Whether a one-pass frame's undrawn subtrees cast coarsely (see [`COARSE_CAST_PX`]): a cell at
-/// `S − 1` covers at most that many pixels at the root cube's nearest `W`. Once a frame, integers.
-pub(crate) fn coarse_casts(frame: &TgFrame, light: &LightFrame) -> bool {
-    let level = light.stop_level.saturating_sub(1).min(MAX_LEVELS - 1);
-    let nearest = frame
-        .root[2]
-        .saturating_sub(frame.ext[0].w)
-        .max(frame.near_w)
-        .max(1) as u32;
-    // size_q8 = k · 2^shift / W ≤ COARSE_CAST_PX · 256
-    let (k, shift) = frame.size_k[level];
-    (u128::from(k) << shift.min(64)) <= u128::from(COARSE_CAST_PX << 8) * u128::from(nearest)
-}
-
-impl<'l, 'm, 'b> OnePass<'l, 'm, 'b> {
-    /// One-pass hooks for `frame` with `light`'s tables and `map` (cleared by the caller).
-    pub(crate) fn new(light: &'l LightFrame, map: &'m mut ShadowMap<'b>, frame: &TgFrame) -> Self {
-        Self {
-            coarse_casts: coarse_casts(frame, light),
-            light,
-            map,
-        }
-    }
 }
 
 impl OnePass<'_, '_, '_> {
@@ -335,7 +292,7 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
     }
     #[inline]
     fn casts_subtree(&mut self, level: usize, p: LightPos, mask: u32) {
-        if level + 1 == self.light.stop_level && !self.coarse_casts {
+        if level + 1 == self.light.stop_level {
             self.fill_children(level, p, mask);
         } else {
             self.casts(level, p);

@@ -338,7 +338,7 @@ pub fn render_tg_shadowed<S: SplatSink>(
         ShadowMode::Off => crate::tg::render_tg(grid, frame, sink),
         ShadowMode::OnePass if !light.is_point() => {
             map.clear();
-            render_tg_with(grid, frame, &mut OnePass::new(light, map, frame), sink)
+            render_tg_with(grid, frame, &mut OnePass { light, map }, sink)
         }
         ShadowMode::OnePass | ShadowMode::TwoPass => {
             let filled = fill_shadow_map(grid, frame, light, map);

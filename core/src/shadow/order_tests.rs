@@ -111,7 +111,10 @@ fn slot_order_below_the_stop_level_shadows_every_sample_as_light_order_does() {
             for (everywhere, out) in [false, true].into_iter().zip(&mut classes) {
                 let mut map = ShadowMap::new(&mut depth, 64);
                 map.clear();
-                let mut one = OnePass::new(&light, &mut map, &frame);
+                let mut one = OnePass {
+                    light: &light,
+                    map: &mut map,
+                };
                 if everywhere {
                     render_tg_with(&grid, &frame, &mut OrderedEverywhere(&mut one), out);
                 } else {
