@@ -49,7 +49,9 @@
 //! centre depth over their whole footprint), and a neighbour may be one level coarser than the
 //! sample, so one pass biases each sample as for its parent's level; two-pass fills at one texel and
 //! needs only the sample's own. The price of the bias is that contact shadows start a little late,
-//! and later for coarse samples.
+//! and later for coarse samples. A directional light's test is done in the light's Q8 depth units,
+//! `(texel << 8) + bias + 256 ≤ depth`: the same answer as comparing the texel with the biased
+//! depth rounded down to 16 bits, for every depth inside the root cube, without that clamp.
 //!
 //! Memory: the map is borrowed ([`ShadowMap::new`]), so a frame without shadows allocates none, and
 //! firmware built without the `shadows` feature compiles no code from this module (the traversal's
