@@ -11,6 +11,7 @@ mod hostile_tg;
 mod paper_tables;
 mod projection;
 mod qemu_hostile;
+mod qemu_pack_stream;
 mod qemu_scene;
 mod qemu_smoke;
 mod qemu_stream;

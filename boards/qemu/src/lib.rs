@@ -31,6 +31,8 @@
 
 #[cfg(feature = "stream")]
 pub mod hostile;
+#[cfg(all(feature = "stream", feature = "scene"))]
+pub mod pack_stream;
 #[cfg(feature = "scene")]
 pub mod scene;
 #[cfg(feature = "stream")]

@@ -47,12 +47,12 @@ pub fn is_pack(bytes: &[u8]) -> bool {
 }
 
 /// Where a frame of a scene is drawn (statics on the device, the heap on the host).
-pub struct SceneTargets<'a> {
-    /// RGB565 rows of a band ([`crate::BAND_ROWS`]: the whole panel unless the build draws in
-    /// bands).
-    pub color: &'a mut [[u16; WIDTH]; BAND_ROWS],
+pub struct SceneTargets<'a, const ROWS: usize = BAND_ROWS> {
+    /// RGB565 rows of a band (`ROWS`: [`crate::BAND_ROWS`], the whole panel unless the build draws
+    /// in bands; a streamed pack's `PACK_BAND_ROWS`).
+    pub color: &'a mut [[u16; WIDTH]; ROWS],
     /// Depth rows of a band.
-    pub depth: &'a mut [[u16; WIDTH]; BAND_ROWS],
+    pub depth: &'a mut [[u16; WIDTH]; ROWS],
     /// The shading table, kept between frames (slots rebuilt only when their directions change).
     pub table: &'a mut SceneTable,
     /// Shadow-map depths: at least the pack's map side² when it has shadows (may be empty

@@ -175,6 +175,9 @@ pub enum Leg {
     Px1,
     /// A QSplat file's std view at 1 px, drawn in passes from the first ([`qs_stream_frames`]).
     QsPx1,
+    /// A scene pack's first view at 1 px, drawn in passes band by band
+    /// (`pack_stream::pack_stream_frames`).
+    PackPx1,
 }
 
 impl Leg {
@@ -190,6 +193,7 @@ impl Leg {
             Leg::Px2 => "px2",
             Leg::Px1 => "px1",
             Leg::QsPx1 => "qs-px1",
+            Leg::PackPx1 => "pack-px1",
         }
     }
 
@@ -198,20 +202,20 @@ impl Leg {
         match self {
             Leg::Std | Leg::Orbit | Leg::Return => STREAM_CUTOFF_PX,
             Leg::Px2 => 2,
-            Leg::Px1 | Leg::QsPx1 => 1,
+            Leg::Px1 | Leg::QsPx1 | Leg::PackPx1 => 1,
         }
     }
 
     /// Whether the leg draws a refined frame in passes (one line per pass).
     pub fn passes(self) -> bool {
-        matches!(self, Leg::Px2 | Leg::Px1 | Leg::QsPx1)
+        matches!(self, Leg::Px2 | Leg::Px1 | Leg::QsPx1 | Leg::PackPx1)
     }
 
     /// The leg called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL
             .into_iter()
-            .chain([Leg::QsPx1])
+            .chain([Leg::QsPx1, Leg::PackPx1])
             .find(|l| l.name() == name)
     }
 }
@@ -367,6 +371,19 @@ pub enum StreamRunError<E> {
     Open(pocketsplat_core::stream::StreamError<E>),
     /// A frame could not be set up.
     View(RenderError),
+    /// A scene pack's metadata or one of its objects could not be opened.
+    #[cfg(feature = "scene")]
+    Pack(pocketsplat_core::stream::SceneStreamError<E>),
+    /// A scene pack's objects need more of the memory given than there is.
+    #[cfg(feature = "scene")]
+    PackMemory {
+        /// What they need more of.
+        what: &'static str,
+        /// How much they need.
+        need: u32,
+        /// How much there is.
+        have: u32,
+    },
 }
 
 impl<E: fmt::Debug> fmt::Display for StreamRunError<E> {
@@ -374,6 +391,13 @@ impl<E: fmt::Debug> fmt::Display for StreamRunError<E> {
         match self {
             StreamRunError::Open(e) => write!(f, "opening the stream: {e}"),
             StreamRunError::View(e) => write!(f, "{e}"),
+            #[cfg(feature = "scene")]
+            StreamRunError::Pack(e) => write!(f, "opening the pack: {e}"),
+            #[cfg(feature = "scene")]
+            StreamRunError::PackMemory { what, need, have } => write!(
+                f,
+                "the pack's objects need {need} {what} at once; this build has {have}"
+            ),
         }
     }
 }

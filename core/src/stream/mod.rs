@@ -60,7 +60,9 @@ pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
 #[cfg(feature = "qsplat")]
 pub use qs::{QsStream, QsStreamWalk, QS_MAX_TREES};
 #[cfg(feature = "scene")]
-pub use scene::{read_pack_meta, ObjectStream, SceneStream, SceneStreamError, Window, WindowError};
+pub use scene::{
+    cache_shares, read_pack_meta, ObjectStream, SceneStream, SceneStreamError, Window, WindowError,
+};
 pub use serve::{ServeReport, StreamCounters};
 pub use tg::{StreamWalk, TgStream};
 

@@ -198,6 +198,34 @@ fn read_retrying<C: ChunkSource + ?Sized>(
     ))
 }
 
+/// Bytes of cache each of a pack's objects streams through, out of `cache_bytes` shared by all,
+/// into `shares`: first what its stream needs at once (`needs[i]`, at most its file and the block
+/// its last bytes share), then the rest in proportion to what its file (`lens[i]` bytes) has beyond
+/// that, so that an object keeps resident as much more of itself as it has more to keep. The
+/// simulator's heap streams and the firmware's one static pool split their cache so.
+///
+/// # Errors
+/// The bytes the objects need at once, when that is more than `cache_bytes` (or the slices differ
+/// in length).
+pub fn cache_shares(
+    lens: &[usize],
+    needs: &[usize],
+    cache_bytes: usize,
+    shares: &mut [usize],
+) -> Result<(), usize> {
+    let need = needs.iter().fold(0usize, |a, &n| a.saturating_add(n));
+    if need > cache_bytes || lens.len() != needs.len() || shares.len() != needs.len() {
+        return Err(need);
+    }
+    let spare = (cache_bytes - need) as u128;
+    let beyond = |i: usize| lens[i].saturating_sub(needs[i]) as u128;
+    let total = (0..lens.len()).map(beyond).sum::<u128>().max(1);
+    for (i, share) in shares.iter_mut().enumerate() {
+        *share = needs[i] + (spare * beyond(i) / total) as usize;
+    }
+    Ok(())
+}
+
 /// One object's file being streamed.
 // The two streams differ by a few hundred bytes of ~3 KB, and the core has no heap to box one.
 #[allow(clippy::large_enum_variant)]

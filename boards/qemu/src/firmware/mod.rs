@@ -16,7 +16,9 @@ use cortex_m_rt::entry;
 use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
-#[cfg(any(feature = "model", feature = "stream"))]
+#[cfg(all(feature = "stream", feature = "scene"))]
+use pocketsplat_qemu::pack_stream;
+#[cfg(any(feature = "model", all(feature = "stream", not(feature = "scene"))))]
 use pocketsplat_qemu::Targets;
 #[cfg(feature = "shadows")]
 use pocketsplat_qemu::SHADOW_MAP_SIZE;
@@ -41,10 +43,10 @@ fn main() -> ! {
     #[cfg(feature = "shadows")]
     static mut LIGHT: LightFrame = LightFrame::UNSET;
     // The block cache and the per-block table of a streamed model (64 KB + 1 KB + 32 KB).
-    #[cfg(feature = "stream")]
+    #[cfg(all(feature = "stream", not(feature = "scene")))]
     static mut CACHE: [u8; pocketsplat_qemu::stream::CACHE_BYTES] =
         [0; pocketsplat_qemu::stream::CACHE_BYTES];
-    #[cfg(feature = "stream")]
+    #[cfg(all(feature = "stream", not(feature = "scene")))]
     static mut STREAM: pocketsplat_qemu::stream::StreamTables =
         pocketsplat_qemu::stream::StreamTables::EMPTY;
     // A scene's tables: eight slots and the pack's map, beside the single model's (which a pack
@@ -53,6 +55,13 @@ fn main() -> ! {
     static mut SCENE_TABLE: pocketsplat_qemu::scene::SceneTable = ShadingTable::new();
     #[cfg(all(feature = "model", feature = "scene"))]
     static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
+    // A streamed pack's (pocketsplat_qemu::pack_stream): a band's colour and depth, eight slots,
+    // a 128² map, the pack's metadata, one block cache and table of blocks the objects share.
+    // The single model's buffers above stay unused, and the linker drops them.
+    #[cfg(all(feature = "stream", feature = "scene"))]
+    static mut PACK: pack_stream::PackBuffers = pack_stream::PackBuffers::EMPTY;
+    #[cfg(all(feature = "stream", feature = "scene"))]
+    static mut PACK_TABLES: pack_stream::PackTables = pack_stream::PackTables::EMPTY;
 
     faults::selftest();
     memory::paint_stack();
@@ -74,7 +83,22 @@ fn main() -> ! {
         });
         run::report_memory(psram_bytes);
     }
-    #[cfg(any(feature = "model", feature = "stream"))]
+    #[cfg(all(feature = "stream", feature = "scene"))]
+    {
+        let _ = (&COLOR, &DEPTH, &TABLE);
+        #[cfg(feature = "shadows")]
+        let _ = &SHADOW;
+        let (targets, mem) = pack_stream::pack_memory(
+            PACK,
+            PACK_TABLES,
+            #[cfg(feature = "shadows")]
+            LIGHT,
+        );
+        run::render_pack_stream(targets, mem);
+    }
+    #[cfg(all(feature = "stream", feature = "scene"))]
+    run::report_memory(psram_bytes);
+    #[cfg(any(feature = "model", all(feature = "stream", not(feature = "scene"))))]
     let targets = Targets {
         color: COLOR,
         depth: DEPTH,
@@ -86,7 +110,7 @@ fn main() -> ! {
     };
     #[cfg(feature = "model")]
     run::render_model(targets);
-    #[cfg(feature = "stream")]
+    #[cfg(all(feature = "stream", not(feature = "scene")))]
     run::render_stream(targets, STREAM.with_cache(CACHE));
     #[cfg(not(any(feature = "model", feature = "stream")))]
     {
@@ -96,6 +120,7 @@ fn main() -> ! {
         run::render_pattern(COLOR);
     }
 
+    #[cfg(not(all(feature = "stream", feature = "scene")))]
     run::report_memory(psram_bytes)
 }
 

@@ -3,7 +3,7 @@
 //! pattern; then the memory report, which ends the run.
 
 use cortex_m_semihosting::{debug, hprintln};
-#[cfg(any(feature = "model", feature = "stream"))]
+#[cfg(any(feature = "model", all(feature = "stream", not(feature = "scene"))))]
 use pocketsplat_qemu::Targets;
 #[cfg(not(any(feature = "model", feature = "stream")))]
 use pocketsplat_qemu::{HEIGHT, WIDTH};
@@ -12,7 +12,10 @@ use pocketsplat_qemu::{HEIGHT, WIDTH};
 use embedded_sdmmc::{Mode, VolumeIdx};
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
-#[cfg(feature = "stream")]
+#[cfg(all(
+    feature = "stream",
+    any(feature = "selftest-hostile", not(feature = "scene"))
+))]
 use pocketsplat_qemu::stream::StreamMemory;
 
 #[cfg(feature = "stream")]
@@ -170,12 +173,14 @@ pub fn render_pattern(color: &mut [[u16; WIDTH]; HEIGHT]) {
 #[cfg(all(
     feature = "stream",
     not(feature = "selftest-hostile"),
+    not(feature = "scene"),
     not(feature = "qsplat")
 ))]
 const MODEL_FILE: &str = "BUNNY.TG";
 #[cfg(all(
     feature = "stream",
     not(feature = "selftest-hostile"),
+    not(feature = "scene"),
     feature = "qsplat"
 ))]
 const MODEL_FILE: &str = "MODEL.QS";
@@ -216,7 +221,51 @@ pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
     hprintln!("hostile done {}", index);
 }
 
-#[cfg(all(feature = "stream", not(feature = "selftest-hostile")))]
+/// Opens the image, its first FAT volume and `SCENE.PAK`, and draws the pack's first view refined
+/// in passes band by band, one line per pass (`pocketsplat_qemu::pack_stream`); any failure to
+/// get that far ends the run with a message.
+#[cfg(all(feature = "stream", feature = "scene"))]
+pub fn render_pack_stream(
+    mut targets: pocketsplat_qemu::scene::SceneTargets<
+        '_,
+        { pocketsplat_qemu::pack_stream::PACK_BAND_ROWS },
+    >,
+    mem: pocketsplat_qemu::pack_stream::PackMemory<'_>,
+) {
+    use pocketsplat_qemu::pack_stream::{pack_stream_frames, PACK_FILE};
+    let disk = match HostDisk::open(IMAGE) {
+        Ok(d) => d,
+        Err(e) => fail(format_args!("image: {e}")),
+    };
+    hprintln!("image blocks {}", disk.blocks);
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+    let file = volumes
+        .open_raw_volume(VolumeIdx(0))
+        .and_then(|v| volumes.open_root_dir(v))
+        .and_then(|root| volumes.open_file_in_dir(root, PACK_FILE, Mode::ReadOnly));
+    let file = match file {
+        Ok(f) => f,
+        Err(e) => fail(format_args!("{PACK_FILE}: {e:?}")),
+    };
+    let mut sd = SdFile::new(&volumes, file);
+    match sd.len() {
+        Ok(n) => hprintln!("pack file {} bytes {}", PACK_FILE, n),
+        Err(e) => fail(format_args!("{PACK_FILE}: {e:?}")),
+    }
+    let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
+    match pack_stream_frames(&mut sd, mem, &mut targets, marks::hit, report) {
+        Ok(totals) => hprintln!("{}", totals),
+        Err(e) => fail(format_args!("stream: {e}")),
+    }
+    hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+}
+
+#[cfg(all(
+    feature = "stream",
+    not(feature = "selftest-hostile"),
+    not(feature = "scene")
+))]
 /// Opens the image, its first FAT volume and [`MODEL_FILE`], and draws the streamed
 /// sequence, one line per frame; any failure to get that far ends the run with a message.
 pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {

@@ -9,8 +9,8 @@ use pocketsplat_core::scene::{Kind, Pack, MAX_META_BYTES};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
-    read_pack_meta, ChunkSource, ObjectStream, QsStream, SceneStream, ServeReport, StreamCounters,
-    Window,
+    cache_shares as split_cache, read_pack_meta, ChunkSource, ObjectStream, QsStream, SceneStream,
+    ServeReport, StreamCounters, Window,
 };
 
 use super::run::{
@@ -96,8 +96,8 @@ fn cache_shares<C: ChunkSource + ?Sized>(
         return Ok(lens.iter().map(|&len| len + (1 << 16)).collect());
     }
     let needs = least_caches(src, pack)?;
-    let need: usize = needs.iter().sum();
-    if need > cache_bytes {
+    let mut shares = vec![0; needs.len()];
+    if let Err(need) = split_cache(&lens, &needs, cache_bytes, &mut shares) {
         bail!(
             "--cache {} is too small for this pack: its {} objects' streams need {} at once \
              ({}), so streaming it needs --cache {} or more",
@@ -108,18 +108,7 @@ fn cache_shares<C: ChunkSource + ?Sized>(
             cache_arg(need as u64)
         );
     }
-    let spare = (cache_bytes - need) as u128;
-    let beyond: Vec<u128> = lens
-        .iter()
-        .zip(&needs)
-        .map(|(&l, &n)| l.saturating_sub(n) as u128)
-        .collect();
-    let total = beyond.iter().sum::<u128>().max(1);
-    Ok(needs
-        .iter()
-        .zip(&beyond)
-        .map(|(&n, &b)| n + (spare * b / total) as usize)
-        .collect())
+    Ok(shares)
 }
 
 /// `name size, …` of each object's `bytes`.

@@ -1,0 +1,415 @@
+//! A scene pack streamed as a 520 KB board draws it (features `stream` and `scene`): the firmware
+//! reads `SCENE.PAK` from a FAT image through embedded-sdmmc, every object's file through its own
+//! share of one static block cache ([`cache_shares`]), and draws the pack's first view at 1 px
+//! with the pack's shadows, refined in passes ([`Leg::PackPx1`], one line per pass), in
+//! [`PACK_BANDS`] horizontal bands with a [`PACK_MAP_SIZE`]² shadow map: each band's refined frame
+//! in its own passes (a band's colour and depth are all the board keeps between passes), the next
+//! band begun when one is complete.
+//!
+//! A pass's line carries the CRC of the rows finished so far and of the band at hand, so that the
+//! last pass's CRC is the whole frame's: the frame the pack opened whole gives at the same map
+//! size (the simulator's `render --shadow-map 128`), which the tests check on the host and under
+//! QEMU.
+
+use pocketsplat_core::crc::Crc32;
+use pocketsplat_core::raster::{Band, Framebuffer};
+use pocketsplat_core::render::{render_scene_stream, Direct, StreamPass, Target};
+use pocketsplat_core::scene::{Kind, MAX_META_BYTES, MAX_OBJECTS, MAX_SLOTS};
+#[cfg(feature = "shadows")]
+use pocketsplat_core::shadow::LightFrame;
+use pocketsplat_core::stream::{
+    cache_shares, read_pack_meta, BlockEntry, ChunkSource, ObjectStream, SceneStream, SlotEntry,
+    StreamError, TgStream, Window,
+};
+
+use crate::scene::{SceneTable, SceneTargets};
+use crate::stream::{
+    Leg, StreamFrame, StreamRunError, StreamTotals, MAX_IDLE_PASSES, REFINE_IO_BUDGET_BYTES,
+};
+use crate::{Phase, HEIGHT, PANEL, WIDTH};
+
+/// The pack's file name in the volume's root directory (8.3).
+pub const PACK_FILE: &str = "SCENE.PAK";
+/// Bands of the panel a streamed pack's frame is drawn in: two bands of 160 rows (76.8 KB of
+/// colour and as much of depth, not 307.2 KB for both at once), for a walk of the scene per band.
+pub const PACK_BANDS: usize = 2;
+/// Rows of a band.
+pub const PACK_BAND_ROWS: usize = HEIGHT / PACK_BANDS;
+const _: () = assert!(
+    PACK_BAND_ROWS * PACK_BANDS == HEIGHT,
+    "bands tile the panel"
+);
+/// Side of the shadow map a streamed pack is drawn with at most, texels (32 KB; a pack that asks
+/// for a smaller one keeps it). The Big Scene asks for 512² (512 KB), which no such board has.
+pub const PACK_MAP_SIZE: usize = 128;
+/// Texels of that map.
+pub const PACK_MAP_TEXELS: usize = PACK_MAP_SIZE * PACK_MAP_SIZE;
+/// Bytes of block cache the pack's objects share (a static on the device).
+pub const PACK_CACHE_BYTES: usize = 80 * 1024;
+/// Cache slots: one per block of the smallest block size (512 bytes).
+pub const PACK_CACHE_SLOTS: usize = PACK_CACHE_BYTES / 512;
+/// Blocks the pack's files may have together (one [`BlockEntry`] each, 16 bytes): 3 MB of files
+/// in 1 KB blocks.
+pub const PACK_MAX_BLOCKS: usize = 3072;
+/// Passes the refined frame may take before the run ends on what it has: the Big Scene in 1 KB
+/// blocks through [`PACK_CACHE_BYTES`] takes about 2,200 (each pass stops where a block it needs
+/// is absent, and the cache holds a few hundred of the frame's 2,600).
+pub const PACK_MAX_PASSES: u32 = 8192;
+/// Blocks of a streamed `.qs` object: 2 KB, as a streamed `.qs` file's
+/// ([`crate::stream::QS_BLOCK_LOG2`]).
+#[cfg(feature = "qsplat")]
+const QS_BLOCK_LOG2: u8 = crate::stream::QS_BLOCK_LOG2;
+
+/// The caller's memory for a streamed pack (statics on the device, the heap on the host).
+pub struct PackMemory<'a> {
+    /// The pack's metadata ([`pocketsplat_core::scene::MAX_META_BYTES`]).
+    pub meta: &'a mut [u8],
+    /// Cache blocks, shared out among the objects.
+    pub data: &'a mut [u8],
+    /// Cache slots, likewise.
+    pub slots: &'a mut [SlotEntry],
+    /// One entry per block of every object's file.
+    pub blocks: &'a mut [BlockEntry],
+}
+
+/// A streamed pack's buffers, all zero at first (the device's `.bss`): a band's colour and depth,
+/// the shading table (eight slots), the shadow map, the pack's metadata and the block cache.
+pub struct PackBuffers {
+    /// A band's colour rows.
+    pub color: [[u16; WIDTH]; PACK_BAND_ROWS],
+    /// A band's depth rows.
+    pub depth: [[u16; WIDTH]; PACK_BAND_ROWS],
+    /// The scene's shading table.
+    pub table: SceneTable,
+    /// The shadow map.
+    #[cfg(feature = "shadows")]
+    pub shadow: [u16; PACK_MAP_TEXELS],
+    /// The pack's metadata.
+    pub meta: [u8; MAX_META_BYTES],
+    /// The block cache the objects share.
+    pub cache: [u8; PACK_CACHE_BYTES],
+}
+
+impl PackBuffers {
+    /// Zeroed buffers and an empty table.
+    pub const EMPTY: Self = Self {
+        color: [[0; WIDTH]; PACK_BAND_ROWS],
+        depth: [[0; WIDTH]; PACK_BAND_ROWS],
+        table: SceneTable::new(),
+        #[cfg(feature = "shadows")]
+        shadow: [0; PACK_MAP_TEXELS],
+        meta: [0; MAX_META_BYTES],
+        cache: [0; PACK_CACHE_BYTES],
+    };
+}
+
+/// A streamed pack's tables, whose empty entries are not zero (the device's `.data`, apart from
+/// the buffers so that flash holds only these): the cache's slots and one entry per block.
+pub struct PackTables {
+    /// Cache slots.
+    pub slots: [SlotEntry; PACK_CACHE_SLOTS],
+    /// One entry per block of every object's file.
+    pub blocks: [BlockEntry; PACK_MAX_BLOCKS],
+}
+
+impl PackTables {
+    /// Empty tables.
+    pub const EMPTY: Self = Self {
+        slots: [SlotEntry::EMPTY; PACK_CACHE_SLOTS],
+        blocks: [BlockEntry::EMPTY; PACK_MAX_BLOCKS],
+    };
+}
+
+/// What [`pack_stream_frames`] takes, from the buffers, the tables and the light frame (with
+/// `shadows`).
+pub fn pack_memory<'a>(
+    buffers: &'a mut PackBuffers,
+    tables: &'a mut PackTables,
+    #[cfg(feature = "shadows")] light: &'a mut LightFrame,
+) -> (SceneTargets<'a, PACK_BAND_ROWS>, PackMemory<'a>) {
+    let PackBuffers {
+        color,
+        depth,
+        table,
+        #[cfg(feature = "shadows")]
+        shadow,
+        meta,
+        cache,
+    } = buffers;
+    (
+        SceneTargets {
+            color,
+            depth,
+            table,
+            #[cfg(feature = "shadows")]
+            shadow,
+            #[cfg(not(feature = "shadows"))]
+            shadow: &mut [],
+            #[cfg(feature = "shadows")]
+            light,
+        },
+        PackMemory {
+            meta,
+            data: cache,
+            slots: &mut tables.slots,
+            blocks: &mut tables.blocks,
+        },
+    )
+}
+
+/// Takes the first `n` items of `*rest`, leaving it the others.
+fn take<'a, T>(rest: &mut &'a mut [T], n: usize) -> &'a mut [T] {
+    let (head, tail) = core::mem::take(rest).split_at_mut(n);
+    *rest = tail;
+    head
+}
+
+/// Opens the pack on `src` over `mem`: its metadata, then every object's stream through its share
+/// of the cache (what its stream needs at once, then the rest in proportion to its file).
+///
+/// # Errors
+/// [`StreamRunError::Pack`] when the metadata or an object cannot be read or is invalid,
+/// [`StreamRunError::PackMemory`] when the objects need more cache or block entries than `mem`
+/// has.
+pub fn open_pack<'a, C: ChunkSource + ?Sized>(
+    src: &mut C,
+    mem: PackMemory<'a>,
+) -> Result<SceneStream<'a, 'a>, StreamRunError<C::Error>> {
+    use pocketsplat_core::stream::SceneStreamError as E;
+    let pack = read_pack_meta(src, mem.meta).map_err(StreamRunError::Pack)?;
+    let n = pack.object_count();
+    let object = |i: usize| pack.object(i).ok_or(E::Scene(missing_object(i)));
+    // Each object's block size, blocks and least cache: a tri-grid's found by opening it through
+    // the whole pool (what it needs is known once its header and head are read), a QSplat file's
+    // the most any file needs.
+    let (mut log2, mut blocks) = ([0u8; MAX_OBJECTS], [0usize; MAX_OBJECTS]);
+    let (mut lens, mut needs) = ([0usize; MAX_OBJECTS], [0usize; MAX_OBJECTS]);
+    for i in 0..n {
+        let rec = object(i).map_err(StreamRunError::Pack)?;
+        let win = &mut Window::of(src, &rec);
+        let obj_err = |error| {
+            StreamRunError::Pack(E::Object {
+                object: i as u8,
+                error,
+            })
+        };
+        lens[i] = rec.data_len as usize;
+        match rec.kind {
+            Kind::TriGrid => {
+                let need = match TgStream::open(win, mem.data, mem.slots, mem.blocks) {
+                    Ok(s) => {
+                        (log2[i], blocks[i]) = (s.header().block_log2, s.header().blocks as usize);
+                        s.cache_need()
+                    }
+                    Err(StreamError::CacheTooSmall {
+                        needed, block_size, ..
+                    }) => {
+                        log2[i] = block_size.trailing_zeros() as u8;
+                        blocks[i] = lens[i] >> log2[i];
+                        needed
+                    }
+                    Err(e) => return Err(obj_err(e)),
+                };
+                needs[i] = (need as usize) << log2[i];
+            }
+            #[cfg(feature = "qsplat")]
+            Kind::QSplat => {
+                log2[i] = QS_BLOCK_LOG2;
+                blocks[i] = lens[i].div_ceil(1 << QS_BLOCK_LOG2);
+                let need = pocketsplat_core::stream::QsStream::MAX_CACHE_NEED as usize;
+                needs[i] = (need << QS_BLOCK_LOG2).min(blocks[i] << QS_BLOCK_LOG2);
+            }
+            #[cfg(not(feature = "qsplat"))]
+            Kind::QSplat => {
+                return Err(StreamRunError::Pack(E::Scene(
+                    pocketsplat_core::scene::SceneError::NoQSplat { object: i as u8 },
+                )))
+            }
+        }
+    }
+    let entries: usize = blocks[..n].iter().sum();
+    if entries > mem.blocks.len() {
+        return Err(StreamRunError::PackMemory {
+            what: "block entries",
+            need: entries as u32,
+            have: mem.blocks.len() as u32,
+        });
+    }
+    let mut shares = [0usize; MAX_OBJECTS];
+    cache_shares(&lens[..n], &needs[..n], mem.data.len(), &mut shares[..n]).map_err(|need| {
+        StreamRunError::PackMemory {
+            what: "cache bytes",
+            need: need as u32,
+            have: mem.data.len() as u32,
+        }
+    })?;
+    let (mut data, mut slots, mut entries) = (mem.data, mem.slots, mem.blocks);
+    // Each object's stream opened as the scene's stream takes it, not gathered first: on the
+    // device the streams are kilobytes each, and the stack holds them once.
+    let mut failed = None;
+    let streams = (0..n).map_while(|i| {
+        let rec = pack.object(i)?;
+        let win = &mut Window::of(src, &rec);
+        // Whole blocks of the share; a slot for each (the slots are as many as 512-byte blocks in
+        // the pool, so every share's fit).
+        let held = shares[i] >> log2[i];
+        let d = take(&mut data, held << log2[i]);
+        let n_slots = held.min(slots.len());
+        let s = take(&mut slots, n_slots);
+        let b = take(&mut entries, blocks[i]);
+        let stream = match rec.kind {
+            Kind::TriGrid => TgStream::open(win, d, s, b).map(ObjectStream::Grid),
+            #[cfg(feature = "qsplat")]
+            Kind::QSplat => pocketsplat_core::stream::QsStream::open(win, QS_BLOCK_LOG2, d, s, b)
+                .map(ObjectStream::QSplat),
+            #[cfg(not(feature = "qsplat"))]
+            Kind::QSplat => unreachable!("refused above"),
+        };
+        stream
+            .map_err(|error| {
+                failed = Some(E::Object {
+                    object: i as u8,
+                    error,
+                })
+            })
+            .ok()
+    });
+    let scene = SceneStream::new(pack, streams);
+    if let Some(e) = failed {
+        return Err(StreamRunError::Pack(e));
+    }
+    scene.map_err(|e| StreamRunError::Pack(E::Scene(e)))
+}
+
+/// The error of a pack that counts an object it has no record of (a valid pack has none).
+fn missing_object(i: usize) -> pocketsplat_core::scene::SceneError {
+    pocketsplat_core::scene::SceneError::Streams {
+        objects: i as u8,
+        streams: i as u8,
+    }
+}
+
+/// Opens the pack on `src` over `mem` and draws its first view (the std view if it has none) at 1 px with its shadows, refined
+/// in passes band by band into `targets` (their shadow map at least [`PACK_MAP_TEXELS`]), handing
+/// each pass's line to `report` (`mark` as [`crate::render_standard_view`]'s), until the last
+/// band's refined frame is complete, or for [`PACK_MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes
+/// that read nothing. A failed read leaves its block absent and is read again later.
+///
+/// # Errors
+/// As [`open_pack`]; [`StreamRunError::View`] when a pass cannot be set up.
+pub fn pack_stream_frames<C: ChunkSource + ?Sized>(
+    src: &mut C,
+    mem: PackMemory<'_>,
+    targets: &mut SceneTargets<'_, PACK_BAND_ROWS>,
+    mut mark: impl FnMut(Phase),
+    mut report: impl FnMut(&StreamFrame),
+) -> Result<StreamTotals, StreamRunError<C::Error>> {
+    let mut stream = open_pack(src, mem)?;
+    let scene = stream.scene();
+    // The pack's first view; the std view for a pack without views.
+    let view = scene
+        .pack()
+        .view(0)
+        .map_or(pocketsplat_core::camera::STANDARD_VIEWS[0].1, |(_, v)| v);
+    let camera = scene.camera(view);
+    let mut options = scene.options().with_cutoff(1.0);
+    options.shadow_map_size = options.shadow_map_size.min(PACK_MAP_SIZE);
+    // The materials' power tables, once, before the first pass.
+    targets.table.prepare(&scene.materials::<MAX_SLOTS>());
+    let leg = Leg::PackPx1;
+    let (mut rows_crc, mut failed_before, mut idle) = (Crc32::new(), 0, 0);
+    let (mut band, mut first) = (0, true);
+    for index in 0..PACK_MAX_PASSES {
+        let SceneTargets {
+            color,
+            depth,
+            table,
+            #[cfg(feature = "shadows")]
+            shadow,
+            #[cfg(feature = "shadows")]
+            light,
+            ..
+        } = targets;
+        let target = Target::new(Framebuffer::new(color, depth), &mut **table);
+        #[cfg(feature = "shadows")]
+        let target = target.with_shadows(&mut shadow[..PACK_MAP_TEXELS], light);
+        let top = (band * PACK_BAND_ROWS) as u16;
+        let mut target = target.map_pixels(|f| {
+            Band::new(f, top, PANEL)
+                .expect("PACK_BANDS bands of PACK_BAND_ROWS rows tile the panel")
+        });
+        let pass = if first {
+            StreamPass::FirstPass
+        } else {
+            StreamPass::NextPass
+        };
+        first = false;
+        let drawn = render_scene_stream(
+            &mut stream,
+            &camera,
+            &options,
+            &mut target,
+            pass,
+            &mut Direct,
+            &mut mark,
+        )
+        .map_err(StreamRunError::View)?;
+        let done = stream.refined_done();
+        let last = band + 1 == PACK_BANDS;
+        let mut crc = rows_crc.clone();
+        crc.update_u16_le(targets.color.as_flattened());
+        let c = stream.counters();
+        let failed = c.read_errors + c.crc_errors + c.structure_errors - failed_before;
+        failed_before += failed;
+        let missing = if done && last {
+            stream.missing()
+        } else {
+            stream.missing().max(1)
+        };
+        let served = stream.serve(src, REFINE_IO_BUDGET_BYTES, true);
+        report(&StreamFrame {
+            leg,
+            index,
+            az_deg: 0,
+            crc: crc.finish(),
+            missing,
+            failed,
+            marker: failed > 0 || stream.inconsistent() > 0,
+            read: served.bytes,
+            // Not counted for a pack: its objects' blocks differ in size.
+            prefetched: 0,
+            splats: drawn.stats.splats,
+            nodes: drawn.stats.nodes_visited,
+        });
+        if done {
+            if last {
+                break;
+            }
+            rows_crc.update_u16_le(targets.color.as_flattened());
+            (band, first, idle) = (band + 1, true, 0);
+            continue;
+        }
+        idle = if served.reads > served.failed {
+            0
+        } else {
+            idle + 1
+        };
+        if idle >= MAX_IDLE_PASSES {
+            break;
+        }
+    }
+    let c = stream.counters();
+    Ok(StreamTotals {
+        bytes: c.bytes_read,
+        file_bytes: stream.scene().pack().file_len(),
+        frames: c.frames,
+        read_errors: c.read_errors,
+        crc_errors: c.crc_errors,
+        evictions: c.evictions,
+        cache_blocks: stream
+            .objects()
+            .iter()
+            .map(|o| o.cache_blocks().0 as u32)
+            .sum(),
+    })
+}

@@ -1,0 +1,153 @@
+//! A scene pack streamed under QEMU (issue 31, item 5 in part): the firmware built with `stream`,
+//! `scene` and `shadows` opens `SCENE.PAK` on a FAT image (the Big Scene baked in 1 KB blocks,
+//! 2.7 MB) through embedded-sdmmc and draws its std view at 1 px with one-pass shadows, in two
+//! bands with a 128² shadow map, every object through its share of one 80 KB cache, refined in
+//! passes (`pocketsplat_qemu::pack_stream`). Its lines are the host's over the same image, and its
+//! last pass completes the frame the pack opened whole gives at that map size (the simulator's
+//! `render --bands 2 --shadow-map 128`).
+
+use pocketsplat_core::scene::{Pack, Scene};
+use pocketsplat_core::shadow::LightFrame;
+use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
+use pocketsplat_core::tg::Verify;
+use pocketsplat_qemu::pack_stream::{
+    pack_memory, pack_stream_frames, PackBuffers, PackTables, PACK_BANDS, PACK_FILE, PACK_MAP_SIZE,
+};
+use pocketsplat_qemu::stream::{StreamFrame, StreamTotals};
+use pocketsplat_sim::render::FrameBuffers;
+use pocketsplat_sim::scene::render::{render_pack, PackSettings};
+use pocketsplat_sim::stream::FileBlockDevice;
+use pocketsplat_tests::arm::{check_memory, have_qemu, target_dir, Firmware, TARGET};
+use pocketsplat_tests::fat::{have, make_image};
+
+/// The Big Scene as `boards/sim/scenes/big.toml` places it, baked in 1 KB blocks (its least
+/// cache falls from 228 KB in 4 KB blocks to 78 KB); `None` when a scan is missing off CI.
+fn big_scene_in_1k_blocks() -> Option<Vec<u8>> {
+    for scan in pocketsplat_tests::arm::BIG_SCENE_SCANS {
+        pocketsplat_tests::model(scan)?;
+    }
+    let root = pocketsplat_tests::workspace_root();
+    let text = std::fs::read_to_string(root.join("boards/sim/scenes/big.toml")).unwrap();
+    assert!(
+        text.contains("block_size = 4096"),
+        "big.toml's blocks changed"
+    );
+    let models = pocketsplat_tests::models_dir();
+    let text = text
+        .replace("block_size = 4096", "block_size = 1024")
+        .replace(
+            "models = \"../../../../shared/models\"",
+            &format!("models = {:?}", models.display().to_string()),
+        );
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("big1k.toml");
+    std::fs::write(&toml, text).unwrap();
+    Some(
+        pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
+            .unwrap()
+            .bytes,
+    )
+}
+
+/// The firmware's call on the host, over the same image, with the firmware's statics on the heap.
+fn host_run(image: &std::path::Path) -> (Vec<StreamFrame>, StreamTotals) {
+    let device = FileBlockDevice::open(image).unwrap();
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
+    let volume = volumes
+        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
+        .unwrap();
+    let root = volumes.open_root_dir(volume).unwrap();
+    let file = volumes
+        .open_file_in_dir(root, PACK_FILE, embedded_sdmmc::Mode::ReadOnly)
+        .unwrap();
+    let mut sd = SdFile::new(&volumes, file);
+    // The firmware's statics, on the heap.
+    let mut buffers = Box::new(PackBuffers::EMPTY);
+    let mut tables = Box::new(PackTables::EMPTY);
+    let mut light = Box::new(LightFrame::UNSET);
+    let (mut targets, mem) = pack_memory(&mut buffers, &mut tables, &mut light);
+    let mut lines = Vec::new();
+    let totals = pack_stream_frames(&mut sd, mem, &mut targets, |_| {}, |f| lines.push(*f))
+        .unwrap_or_else(|e| panic!("host run: {e}"));
+    (lines, totals)
+}
+
+#[test]
+fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
+    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    let Some(bytes) = big_scene_in_1k_blocks() else {
+        return;
+    };
+    let dir = target_dir().join("models/sd-big1k");
+    std::fs::create_dir_all(&dir).unwrap();
+    let image = make_image(&dir, &bytes, PACK_FILE);
+    let fw = Firmware {
+        target: TARGET,
+        panel: None,
+        features: &["scene", "shadows", "qsplat"],
+        model: None,
+        image: Some(&image),
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0:\n{}",
+        run.transcript()
+    );
+    let arm: Vec<StreamFrame> = run
+        .stdout()
+        .lines()
+        .filter_map(StreamFrame::parse)
+        .collect();
+    let arm_totals = run
+        .stdout()
+        .lines()
+        .find(|l| l.starts_with("stream total "))
+        .map(str::to_owned)
+        .unwrap_or_else(|| panic!("no `stream total` line:\n{}", run.transcript()));
+
+    let (host, host_totals) = host_run(&image);
+    assert_eq!(arm, host, "the passes differ between ARM and host");
+    assert_eq!(arm_totals, host_totals.to_string());
+
+    let last = arm.last().expect("a pass");
+    assert!(last.converged(), "the refined frame completes: {last}");
+    // The pack opened whole, drawn by the simulator in as many bands with the same map.
+    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    let (_, view) = scene.pack().view(0).unwrap();
+    let settings = PackSettings {
+        kernel: scene.options().kernel,
+        shadow_map_size: Some(PACK_MAP_SIZE.min(scene.pack().shadow_map_size())),
+        ..PackSettings::new(view)
+    };
+    let mut whole = FrameBuffers::new().in_bands(PACK_BANDS as u16);
+    let frame = render_pack(&scene, &settings, &mut whole).unwrap();
+    assert!(frame.stats.total.splats > 100_000, "the scene is in view");
+    assert_eq!(
+        last.crc,
+        whole.crc(),
+        "the streamed frame is the resident pack's"
+    );
+
+    let (memory, stack) = check_memory(&run, &elf).unwrap();
+    let read: u64 = arm.iter().map(|f| u64::from(f.read)).sum();
+    let ms = |mb_s: f64| read as f64 / (mb_s * 1e3);
+    // Not yet asserted against the Pico 2's 520 KB (issue 31, item 4): printed for the note.
+    eprintln!(
+        "QEMU pack stream: Big Scene in 1 KB blocks, {} B, std at 1 px one-pass ({PACK_BANDS} \
+         bands, map {PACK_MAP_SIZE}²) in {} passes through {} blocks: {read} bytes read \
+         ({:.0} / {:.0} / {:.0} ms of SD reading at 2 / 10 / 20 MB/s); RAM {} B + stack {stack} B",
+        bytes.len(),
+        arm.len(),
+        host_totals.cache_blocks,
+        ms(2.0),
+        ms(10.0),
+        ms(20.0),
+        memory.ram,
+    );
+}
