@@ -378,7 +378,7 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
 }
 
 /// The RAM budget of the Big Scene streamed as a 520 KB device would draw it (issue 31, item 4):
-/// two bands, a 128² map, the least caches. As baked for benchmarks (4 KB blocks) its caches
+/// four bands, a 128² map, the least caches. As baked for benchmarks (4 KB blocks) its caches
 /// alone are 228 KB and it does not fit; baked with 1 KB blocks (the least cache falls to 78 KB,
 /// for more blocks to keep a table entry of) it must, before the stack, with room for one.
 #[test]

@@ -30,9 +30,11 @@ use crate::{Phase, HEIGHT, PANEL, WIDTH};
 
 /// The pack's file name in the volume's root directory (8.3).
 pub const PACK_FILE: &str = "SCENE.PAK";
-/// Bands of the panel a streamed pack's frame is drawn in: two bands of 160 rows (76.8 KB of
+/// Bands of the panel a streamed pack's frame is drawn in: four bands of 80 rows (38.4 KB of
 /// colour and as much of depth, not 307.2 KB for both at once), for a walk of the scene per band.
-pub const PACK_BANDS: usize = 2;
+/// Two bands do not fit 520 KB beside the eight-slot shading table (148 KB), the cache and the
+/// object streams.
+pub const PACK_BANDS: usize = 4;
 /// Rows of a band.
 pub const PACK_BAND_ROWS: usize = HEIGHT / PACK_BANDS;
 const _: () = assert!(
@@ -55,6 +57,8 @@ pub const PACK_MAX_BLOCKS: usize = 3072;
 /// blocks through [`PACK_CACHE_BYTES`] takes about 2,200 (each pass stops where a block it needs
 /// is absent, and the cache holds a few hundred of the frame's 2,600).
 pub const PACK_MAX_PASSES: u32 = 8192;
+/// Objects a streamed pack may have (a pack holds up to 16; each stream is 3.3 KB of RAM).
+pub const PACK_MAX_OBJECTS: usize = 8;
 /// Blocks of a streamed `.qs` object: 2 KB, as a streamed `.qs` file's
 /// ([`crate::stream::QS_BLOCK_LOG2`]).
 #[cfg(feature = "qsplat")]
@@ -70,7 +74,12 @@ pub struct PackMemory<'a> {
     pub slots: &'a mut [SlotEntry],
     /// One entry per block of every object's file.
     pub blocks: &'a mut [BlockEntry],
+    /// The objects' streams (kilobytes each: in a static, not on the stack).
+    pub objects: &'a mut PackObjects<'a>,
 }
+
+/// Room for the streams of a pack's objects: [`PACK_MAX_OBJECTS`] of them.
+pub type PackObjects<'a> = heapless::Vec<ObjectStream<'a>, PACK_MAX_OBJECTS>;
 
 /// A streamed pack's buffers, all zero at first (the device's `.bss`): a band's colour and depth,
 /// the shading table (eight slots), the shadow map, the pack's metadata and the block cache.
@@ -120,11 +129,12 @@ impl PackTables {
     };
 }
 
-/// What [`pack_stream_frames`] takes, from the buffers, the tables and the light frame (with
-/// `shadows`).
+/// What [`pack_stream_frames`] takes, from the buffers, the tables, the room for the objects'
+/// streams and the light frame (with `shadows`).
 pub fn pack_memory<'a>(
     buffers: &'a mut PackBuffers,
     tables: &'a mut PackTables,
+    objects: &'a mut PackObjects<'a>,
     #[cfg(feature = "shadows")] light: &'a mut LightFrame,
 ) -> (SceneTargets<'a, PACK_BAND_ROWS>, PackMemory<'a>) {
     let PackBuffers {
@@ -153,6 +163,7 @@ pub fn pack_memory<'a>(
             data: cache,
             slots: &mut tables.slots,
             blocks: &mut tables.blocks,
+            objects,
         },
     )
 }
@@ -174,10 +185,17 @@ fn take<'a, T>(rest: &mut &'a mut [T], n: usize) -> &'a mut [T] {
 pub fn open_pack<'a, C: ChunkSource + ?Sized>(
     src: &mut C,
     mem: PackMemory<'a>,
-) -> Result<SceneStream<'a, 'a>, StreamRunError<C::Error>> {
+) -> Result<SceneStream<'a, 'a, 'a>, StreamRunError<C::Error>> {
     use pocketsplat_core::stream::SceneStreamError as E;
     let pack = read_pack_meta(src, mem.meta).map_err(StreamRunError::Pack)?;
     let n = pack.object_count();
+    if n > mem.objects.capacity() {
+        return Err(StreamRunError::PackMemory {
+            what: "object streams",
+            need: n as u32,
+            have: mem.objects.capacity() as u32,
+        });
+    }
     let object = |i: usize| pack.object(i).ok_or(E::Scene(missing_object(i)));
     // Each object's block size, blocks and least cache: a tri-grid's found by opening it through
     // the whole pool (what it needs is known once its header and head are read), a QSplat file's
@@ -244,11 +262,11 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
         }
     })?;
     let (mut data, mut slots, mut entries) = (mem.data, mem.slots, mem.blocks);
-    // Each object's stream opened as the scene's stream takes it, not gathered first: on the
-    // device the streams are kilobytes each, and the stack holds them once.
-    let mut failed = None;
-    let streams = (0..n).map_while(|i| {
-        let rec = pack.object(i)?;
+    // Each object's stream opened into the caller's room for it.
+    let objects = mem.objects;
+    objects.clear();
+    for i in 0..n {
+        let rec = object(i).map_err(StreamRunError::Pack)?;
         let win = &mut Window::of(src, &rec);
         // Whole blocks of the share; a slot for each (the slots are as many as 512-byte blocks in
         // the pool, so every share's fit).
@@ -264,21 +282,17 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
                 .map(ObjectStream::QSplat),
             #[cfg(not(feature = "qsplat"))]
             Kind::QSplat => unreachable!("refused above"),
-        };
-        stream
-            .map_err(|error| {
-                failed = Some(E::Object {
-                    object: i as u8,
-                    error,
-                })
+        }
+        .map_err(|error| {
+            StreamRunError::Pack(E::Object {
+                object: i as u8,
+                error,
             })
-            .ok()
-    });
-    let scene = SceneStream::new(pack, streams);
-    if let Some(e) = failed {
-        return Err(StreamRunError::Pack(e));
+        })?;
+        // Room for `n` was checked above.
+        let _ = objects.push(stream);
     }
-    scene.map_err(|e| StreamRunError::Pack(E::Scene(e)))
+    SceneStream::new(pack, objects.as_mut_slice()).map_err(|e| StreamRunError::Pack(E::Scene(e)))
 }
 
 /// The error of a pack that counts an object it has no record of (a valid pack has none).

@@ -118,7 +118,7 @@ pub fn render_qs_stream<P: DepthTarget, L: Layer, const M: usize>(
 /// scene's slots, or a pass is asked for with shadows.
 #[cfg(feature = "scene")]
 pub fn render_scene_stream<P: DepthTarget, L: Layer, const M: usize>(
-    stream: &mut crate::stream::SceneStream<'_, '_>,
+    stream: &mut crate::stream::SceneStream<'_, '_, '_>,
     camera: &Camera,
     options: &RenderOptions,
     target: &mut Target<'_, P, M>,
@@ -174,9 +174,9 @@ mod scene_walk {
     /// A streamed scene's frame ready to walk ([`crate::frame::Walk`]): a frame from what is resident
     /// ([`SceneStream::render`](crate::stream::SceneStream::render)) or, `refined`, the next pass of a refined frame
     /// ([`SceneStream::render_pass`](crate::stream::SceneStream::render_pass)). [`SceneStreamWalk::finish`] says what each object did.
-    pub(super) struct SceneStreamWalk<'w, 'm, 'a> {
+    pub(super) struct SceneStreamWalk<'w, 'm, 'a, 'o> {
         /// The stream.
-        pub(super) stream: &'w mut crate::stream::SceneStream<'m, 'a>,
+        pub(super) stream: &'w mut crate::stream::SceneStream<'m, 'a, 'o>,
         /// The camera, fitted to the target.
         pub(super) camera: &'w Camera,
         /// The options.
@@ -192,7 +192,7 @@ mod scene_walk {
         pub(super) result: Option<Result<crate::scene::SceneStats, crate::scene::SceneError>>,
     }
 
-    impl SceneStreamWalk<'_, '_, '_> {
+    impl SceneStreamWalk<'_, '_, '_, '_> {
         /// What the walk did, per object (empty counts if it never ran).
         ///
         /// # Errors
@@ -203,7 +203,7 @@ mod scene_walk {
         }
     }
 
-    impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_> {
+    impl crate::frame::Walk for SceneStreamWalk<'_, '_, '_, '_> {
         fn walk<S: crate::splat::ColorSink>(&mut self, sink: &mut S) -> crate::splat::Stats {
             // A pass of the refined frame, or a frame from what is resident: the same arguments.
             let step = if self.refined {

@@ -15,8 +15,6 @@
 //!   others prefetch, within one I/O budget; during a refined frame only the object being drawn
 //!   reads.
 
-use heapless::Vec;
-
 #[cfg(feature = "qsplat")]
 use super::QsStream;
 use super::{ChunkSource, ServeReport, StreamCounters, StreamError, TgStream};
@@ -299,11 +297,12 @@ impl ObjectStream<'_> {
     }
 }
 
-/// A scene pack being streamed: its metadata, and a stream per object.
+/// A scene pack being streamed: its metadata, and a stream per object (in the caller's memory:
+/// kilobytes each, a board keeps them in a static rather than on its stack).
 #[derive(Debug)]
-pub struct SceneStream<'m, 'a> {
+pub struct SceneStream<'m, 'a, 'o> {
     scene: Scene<'m>,
-    objects: Vec<ObjectStream<'a>, MAX_OBJECTS>,
+    objects: &'o mut [ObjectStream<'a>],
     /// Where a refined frame drawn in passes stands.
     refine: Refine,
 }
@@ -325,24 +324,16 @@ struct Refine {
     passes: u32,
 }
 
-impl<'m, 'a> SceneStream<'m, 'a> {
+impl<'m, 'a, 'o> SceneStream<'m, 'a, 'o> {
     /// The scene of `pack` (from [`read_pack_meta`]), its objects' files streamed by `objects`,
     /// one per object in the pack's order, each opened on its [`Window`].
     ///
     /// # Errors
     /// [`SceneError`] when a stream is not of its record's kind (`Rho` and `MaterialBits` as
     /// for a pack opened whole), or the count differs from the pack's.
-    pub fn new(
-        pack: Pack<'m>,
-        streams: impl IntoIterator<Item = ObjectStream<'a>>,
-    ) -> Result<Self, SceneError> {
-        let mut objects = Vec::<_, MAX_OBJECTS>::new();
-        let mut given = 0u32;
-        for s in streams {
-            given += 1;
-            let _ = objects.push(s);
-        }
-        if given != pack.object_count() as u32 {
+    pub fn new(pack: Pack<'m>, objects: &'o mut [ObjectStream<'a>]) -> Result<Self, SceneError> {
+        let given = objects.len();
+        if given != pack.object_count() {
             return Err(SceneError::Streams {
                 objects: pack.object_count() as u8,
                 streams: given.min(255) as u8,
@@ -377,7 +368,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
 
     /// The objects' streams.
     pub fn objects(&self) -> &[ObjectStream<'a>] {
-        &self.objects
+        self.objects
     }
 
     /// Draws one frame from what is resident into `sink` (as `scene::render_scene` draws the pack
@@ -394,7 +385,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
         sink: &mut S,
     ) -> Result<SceneStats, SceneError> {
         let mut objects = Streams {
-            streams: &mut self.objects,
+            streams: self.objects,
             cast: [false; MAX_OBJECTS],
             pass: None,
         };
@@ -436,7 +427,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
     ) -> Result<SceneStats, SceneError> {
         let r = self.refine;
         let mut objects = Streams {
-            streams: &mut self.objects,
+            streams: self.objects,
             cast: [false; MAX_OBJECTS],
             pass: Some(Cursor {
                 step: r.step,
@@ -509,7 +500,7 @@ impl<'m, 'a> SceneStream<'m, 'a> {
     /// The objects' counts added (frames: the scene's).
     pub fn counters(&self) -> StreamCounters {
         let mut t = StreamCounters::default();
-        for o in &self.objects {
+        for o in self.objects.iter() {
             let c = o.counters();
             t.frames = t.frames.max(c.frames);
             t.reads += c.reads;

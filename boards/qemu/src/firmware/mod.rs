@@ -13,6 +13,7 @@ mod run;
 mod semihosting;
 
 use cortex_m_rt::entry;
+#[cfg(not(all(feature = "stream", feature = "scene")))]
 use pocketsplat_core::shade::ShadingTable;
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
@@ -20,8 +21,9 @@ use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_qemu::pack_stream;
 #[cfg(any(feature = "model", all(feature = "stream", not(feature = "scene"))))]
 use pocketsplat_qemu::Targets;
-#[cfg(feature = "shadows")]
+#[cfg(all(feature = "shadows", not(all(feature = "stream", feature = "scene"))))]
 use pocketsplat_qemu::SHADOW_MAP_SIZE;
+#[cfg(not(all(feature = "stream", feature = "scene")))]
 use pocketsplat_qemu::{HEIGHT, WIDTH};
 
 #[cfg(all(feature = "model", feature = "stream"))]
@@ -34,10 +36,13 @@ fn main() -> ! {
     // cortex-m-rt turns a `static mut` declared in the entry function into a `&'static mut`:
     // the buffers sit in .bss (RAM), not on the stack, with no `unsafe`. Without a model the depth
     // buffer and the table are unused and the linker drops them.
+    #[cfg(not(all(feature = "stream", feature = "scene")))]
     static mut COLOR: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    #[cfg(not(all(feature = "stream", feature = "scene")))]
     static mut DEPTH: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
+    #[cfg(not(all(feature = "stream", feature = "scene")))]
     static mut TABLE: ShadingTable<1> = ShadingTable::new();
-    #[cfg(feature = "shadows")]
+    #[cfg(all(feature = "shadows", not(all(feature = "stream", feature = "scene"))))]
     static mut SHADOW: [u16; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE] =
         [0; SHADOW_MAP_SIZE * SHADOW_MAP_SIZE];
     #[cfg(feature = "shadows")]
@@ -55,13 +60,15 @@ fn main() -> ! {
     static mut SCENE_TABLE: pocketsplat_qemu::scene::SceneTable = ShadingTable::new();
     #[cfg(all(feature = "model", feature = "scene"))]
     static mut SCENE_SHADOW: [u16; SCENE_MAP_PIXELS] = [0; SCENE_MAP_PIXELS];
-    // A streamed pack's (pocketsplat_qemu::pack_stream): a band's colour and depth, eight slots,
-    // a 128² map, the pack's metadata, one block cache and table of blocks the objects share.
-    // The single model's buffers above stay unused, and the linker drops them.
+    // A streamed pack's (pocketsplat_qemu::pack_stream), instead of the single model's: a band's
+    // colour and depth, eight slots, a 128² map, the pack's metadata, one block cache and table of
+    // blocks the objects share, and the objects' streams.
     #[cfg(all(feature = "stream", feature = "scene"))]
     static mut PACK: pack_stream::PackBuffers = pack_stream::PackBuffers::EMPTY;
     #[cfg(all(feature = "stream", feature = "scene"))]
     static mut PACK_TABLES: pack_stream::PackTables = pack_stream::PackTables::EMPTY;
+    #[cfg(all(feature = "stream", feature = "scene"))]
+    static mut PACK_OBJECTS: pack_stream::PackObjects<'static> = pack_stream::PackObjects::new();
 
     faults::selftest();
     memory::paint_stack();
@@ -85,12 +92,10 @@ fn main() -> ! {
     }
     #[cfg(all(feature = "stream", feature = "scene"))]
     {
-        let _ = (&COLOR, &DEPTH, &TABLE);
-        #[cfg(feature = "shadows")]
-        let _ = &SHADOW;
         let (targets, mem) = pack_stream::pack_memory(
             PACK,
             PACK_TABLES,
+            PACK_OBJECTS,
             #[cfg(feature = "shadows")]
             LIGHT,
         );

@@ -173,7 +173,7 @@ pub fn stream_pack<C: ChunkSource + ?Sized>(
         streams.push(s);
     }
     drop(opening);
-    let stream = SceneStream::new(pack, streams).map_err(|e| anyhow!("{e}"))?;
+    let stream = SceneStream::new(pack, &mut streams).map_err(|e| anyhow!("{e}"))?;
     let mut drawn = PackStream {
         stream,
         settings: pack_settings,
@@ -195,8 +195,8 @@ pub fn stream_pack<C: ChunkSource + ?Sized>(
 }
 
 /// A streamed pack as the frame loop draws it: its settings and its scene's shading table.
-struct PackStream<'m, 'a> {
-    stream: SceneStream<'m, 'a>,
+struct PackStream<'m, 'a, 'o> {
+    stream: SceneStream<'m, 'a, 'o>,
     settings: PackSettings,
     table: Box<SceneTable>,
     /// Whether the last frame was a pass of a refined frame (its serve reads only for the object
@@ -210,7 +210,7 @@ struct PackStream<'m, 'a> {
 
 /// Draws `pass` of `stream`'s frame from `cam` into `target`.
 fn draw_into<P: pocketsplat_core::raster::DepthTarget>(
-    stream: &mut SceneStream<'_, '_>,
+    stream: &mut SceneStream<'_, '_, '_>,
     cam: &Camera,
     target: &mut pocketsplat_core::render::Target<'_, P, { pocketsplat_core::scene::MAX_SLOTS }>,
     options: &pocketsplat_core::render::RenderOptions,
@@ -241,7 +241,7 @@ struct RefinedBand {
     passes_before: u32,
 }
 
-impl Streamed for PackStream<'_, '_> {
+impl Streamed for PackStream<'_, '_, '_> {
     fn camera(&self, _: &Settings) -> Camera {
         self.settings.camera(self.stream.scene(), [0.0; 3])
     }
