@@ -274,3 +274,113 @@ pub fn bricked_cases(base: &[u8]) -> Vec<Case> {
     );
     out
 }
+
+/// One hostile scene pack: what was done, the bytes, and what the simulator's error must say.
+pub struct PackCase {
+    /// What was damaged, for messages.
+    pub name: &'static str,
+    /// The pack.
+    pub bytes: Vec<u8>,
+    /// Words the simulator's streamed error must contain (`render --stream`).
+    pub says: &'static str,
+}
+
+/// Hostile scene packs by class (issue 31, item 6), made from `good`, a valid pack whose object 0
+/// is a tri-grid ground in 1 KB blocks, object 1 a tri-grid and object 2 a QSplat file: a header
+/// and metadata cut short, half the pack, a metadata length and an object count beyond any pack's,
+/// a NaN rotation, an object's data or length past the end, each kind called the other, an
+/// object's header zeroed, a damaged block. Fields under the metadata's CRC are changed with the
+/// CRC made right again, so that the checks behind it are what answers.
+///
+/// # Panics
+/// When `good` is too short to be such a pack.
+pub fn pack_cases(good: &[u8]) -> Vec<PackCase> {
+    use pocketsplat_core::crc::crc32;
+    let meta = u32_at(good, 16) as usize;
+    let reseal = |mut b: Vec<u8>| {
+        let end = meta.min(b.len());
+        let crc = crc32(&b[16..end]);
+        put_u32(&mut b, 12, crc);
+        b
+    };
+    let object = |i: usize| 128 + 160 * i;
+    let data_at = |b: &[u8], i: usize| u32_at(b, object(i) + 28) as usize;
+    let case = |name, bytes, says| PackCase { name, bytes, says };
+    let mut cases = vec![
+        case(
+            "a header cut short",
+            good[..100].to_vec(),
+            "shorter than the 128",
+        ),
+        case(
+            "the metadata cut short",
+            good[..meta - 10].to_vec(),
+            "shorter than",
+        ),
+        case(
+            "half the pack",
+            good[..good.len() / 2].to_vec(),
+            "header announces",
+        ),
+    ];
+    let mut b = good.to_vec();
+    put_u32(&mut b, 16, u32::MAX);
+    cases.push(case(
+        "metadata longer than any pack's",
+        b,
+        "metadata length 4294967295",
+    ));
+    let mut b = good.to_vec();
+    b[20] = 200;
+    cases.push(case("200 objects", reseal(b), "byte 20"));
+    let mut b = good.to_vec();
+    b[object(1) + 40..object(1) + 48].copy_from_slice(&f64::NAN.to_le_bytes());
+    cases.push(case("a NaN rotation", reseal(b), "not finite"));
+    let mut b = good.to_vec();
+    let past = (good.len() as u32 + 4096) & !4095;
+    put_u32(&mut b, object(1) + 28, past);
+    cases.push(case(
+        "an object past the end",
+        reseal(b),
+        "object 1: data at byte",
+    ));
+    let mut b = good.to_vec();
+    put_u32(&mut b, object(2) + 32, u32::MAX);
+    cases.push(case(
+        "an object's length past the end",
+        reseal(b),
+        "object 2: data at byte",
+    ));
+    let mut b = good.to_vec();
+    b[object(0) + 16] = 2;
+    cases.push(case(
+        "a tri-grid called a QSplat file",
+        reseal(b),
+        "not a QSplat",
+    ));
+    let mut b = good.to_vec();
+    b[object(2) + 16] = 1;
+    cases.push(case(
+        "a QSplat file called a tri-grid",
+        reseal(b),
+        "object 2 (knot): not a .tg",
+    ));
+    let mut b = good.to_vec();
+    let at = data_at(&b, 1);
+    b[at..at + 64].fill(0);
+    cases.push(case(
+        "an object's header zeroed",
+        b,
+        "object 1 (tree): not a .tg",
+    ));
+    let mut b = good.to_vec();
+    // The ground's second block (1 KB blocks): what opening it reads.
+    let at = data_at(&b, 0) + 1024 + 10;
+    b[at] ^= 0x5a;
+    cases.push(case(
+        "a damaged block of the ground",
+        b,
+        "block 1 fails its CRC",
+    ));
+    cases
+}

@@ -167,3 +167,89 @@ fn info_reports_the_firmwares_pack_configuration() {
     assert_eq!(usize::from(pocketsplat_sim::info::DEVICE_BANDS), PACK_BANDS);
     assert_eq!(pocketsplat_sim::info::DEVICE_MAP_SIZE, PACK_MAP_SIZE);
 }
+
+/// Hostile packs streamed under QEMU (issue 31, item 6): the firmware built with
+/// `selftest-hostile` and `scene` streams `H000.PAK`, `H001.PAK`, … (each class of
+/// `pocketsplat_tests::hostile::pack_cases`) from a FAT image as it streams `SCENE.PAK`, one line
+/// each, and exits normally: every line is the host's over the same image, and every class is
+/// refused with its reason, as the simulator refuses it (`stream_pack.rs`), never drawn as noise,
+/// never a fault.
+#[test]
+fn hostile_packs_are_refused_under_qemu_as_on_the_host() {
+    use pocketsplat_qemu::pack_stream::{hostile_pack_name, hostile_pack_run};
+    if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    let dir = target_dir().join("models/sd-hostile-packs");
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = crate::stream_pack::generated_pack(&dir);
+    let cases = pocketsplat_tests::hostile::pack_cases(&good);
+    let names: Vec<String> = (0..cases.len() as u32)
+        .map(|i| String::from_utf8(hostile_pack_name(i).to_vec()).unwrap())
+        .collect();
+    let files: Vec<(&str, &[u8])> = names
+        .iter()
+        .zip(&cases)
+        .map(|(n, c)| (n.as_str(), &c.bytes[..]))
+        .collect();
+    let image = pocketsplat_tests::fat::make_image_of(&dir, &files);
+    let fw = Firmware {
+        target: TARGET,
+        panel: None,
+        features: &["selftest-hostile", "scene", "shadows", "qsplat"],
+        model: None,
+        image: Some(&image),
+    };
+    let elf = fw.build().unwrap();
+    let run = fw.run(&elf, None).unwrap();
+    assert_eq!(
+        run.output.status.code(),
+        Some(0),
+        "the firmware must exit through semihosting with status 0:\n{}",
+        run.transcript()
+    );
+    let stdout = run.stdout();
+    let arm: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with("hostile-pack "))
+        .collect();
+    assert!(
+        stdout.contains(&format!("hostile done {}", cases.len())),
+        "every file streamed:\n{}",
+        run.transcript()
+    );
+
+    // The same call on the host, over the same image.
+    let device = FileBlockDevice::open(&image).unwrap();
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
+    let volume = volumes
+        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
+        .unwrap();
+    let root = volumes.open_root_dir(volume).unwrap();
+    let mut buffers = Box::new(PackBuffers::EMPTY);
+    let mut tables = Box::new(PackTables::EMPTY);
+    let mut light = Box::new(LightFrame::UNSET);
+    let mut host = Vec::new();
+    for (i, name) in names.iter().enumerate() {
+        let file = volumes
+            .open_file_in_dir(root, name.as_str(), embedded_sdmmc::Mode::ReadOnly)
+            .unwrap();
+        let mut sd = SdFile::new(&volumes, file);
+        // As on the device: the streams borrow the memory beside them, and own nothing to drop.
+        let mut objects = std::mem::ManuallyDrop::new(PackObjects::new());
+        let (mut targets, mem) = pack_memory(&mut buffers, &mut tables, &mut objects, &mut light);
+        let line = hostile_pack_run(i as u32, &mut sd, mem, &mut targets, |_| {});
+        host.push(line.to_string());
+        volumes.close_file(file).unwrap();
+    }
+    assert_eq!(arm, host, "the lines differ between ARM and host");
+    for (case, line) in cases.iter().zip(&arm) {
+        assert!(
+            line.contains(" refused "),
+            "{}: not refused: {line}",
+            case.name
+        );
+        eprintln!("{}: {line}", case.name);
+    }
+}

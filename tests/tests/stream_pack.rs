@@ -261,6 +261,37 @@ fn the_big_scene_streams_from_a_fat_image_through_embedded_sdmmc() {
     }
 }
 
+/// Hostile packs streamed (issue 31, item 6, packs): each class
+/// (`pocketsplat_tests::hostile::pack_cases`) ends in an error that names what is wrong, within a
+/// bounded number of frames; never a panic, a hang or a frame of noise. (The same files stream
+/// under QEMU in `qemu_pack_stream.rs`.)
+#[test]
+fn hostile_packs_streamed_end_in_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = generated_pack(dir.path());
+    let s = settings(
+        Pack::open(&good).unwrap().view_named("v").unwrap(),
+        ShadowMode::OnePass,
+        1.0,
+    );
+    for case in pocketsplat_tests::hostile::pack_cases(&good) {
+        let path = dir.path().join("h.pack");
+        std::fs::write(&path, &case.bytes).unwrap();
+        let mut src = FileSource::open(&path).unwrap();
+        let opts = StreamOptions {
+            max_frames: 200,
+            ..StreamOptions::default()
+        };
+        let mut fb = FrameBuffers::new();
+        let err = stream_pack(&mut src, |_| Ok(s), &opts, &mut fb, |_| Ok(()))
+            .err()
+            .unwrap_or_else(|| panic!("{}: streamed without an error", case.name));
+        let msg = format!("{err:#}");
+        assert!(msg.contains(case.says), "{}: {msg}", case.name);
+        eprintln!("{}: {msg}", case.name);
+    }
+}
+
 /// The Big Scene at the paper's scale (issue 31, item 3): `boards/sim/scenes/paper.toml` baked
 /// here (more than the paper's 11.0 M samples), on a FAT image as `SCENE.PAK`, streamed through
 /// embedded-sdmmc: the std view with one-pass shadows through 64 MB, and in every shadow mode

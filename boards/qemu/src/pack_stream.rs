@@ -234,6 +234,16 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
             Kind::QSplat => {
                 log2[i] = QS_BLOCK_LOG2;
                 blocks[i] = lens[i].div_ceil(1 << QS_BLOCK_LOG2);
+                // Opened once through the whole pool too, so that a file that is not what its
+                // record says is refused by its reader, not by what its share would be.
+                pocketsplat_core::stream::QsStream::open(
+                    win,
+                    QS_BLOCK_LOG2,
+                    mem.data,
+                    mem.slots,
+                    mem.blocks,
+                )
+                .map_err(obj_err)?;
                 let need = pocketsplat_core::stream::QsStream::MAX_CACHE_NEED as usize;
                 needs[i] = (need << QS_BLOCK_LOG2).min(blocks[i] << QS_BLOCK_LOG2);
             }
@@ -426,4 +436,70 @@ pub fn pack_stream_frames<C: ChunkSource + ?Sized>(
             .map(|o| o.cache_blocks().0 as u32)
             .sum(),
     })
+}
+
+/// The name of hostile pack `index` on the volume (8.3): `H000.PAK`… (`selftest-hostile` with
+/// `scene`).
+pub fn hostile_pack_name(index: u32) -> [u8; 8] {
+    let d = |k: u32| b'0' + (index / k % 10) as u8;
+    [b'H', d(100), d(10), d(1), b'.', b'P', b'A', b'K']
+}
+
+/// How a hostile pack ended: `hostile-pack <index> refused <reason>`, or `hostile-pack <index>
+/// drawn converged 0|1 crc 0x… passes N` (the refined frame's last pass).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HostilePackLine<E> {
+    /// Which file.
+    pub index: u32,
+    /// Refused, and why; or the last pass drawn.
+    pub verdict: Result<(StreamFrame, u32), StreamRunError<E>>,
+}
+
+impl<E: core::fmt::Debug> core::fmt::Display for HostilePackLine<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match &self.verdict {
+            Err(e) => write!(f, "hostile-pack {} refused {e}", self.index),
+            Ok((last, passes)) => write!(
+                f,
+                "hostile-pack {} drawn converged {} crc {:#010x} passes {passes}",
+                self.index,
+                u8::from(last.converged()),
+                last.crc
+            ),
+        }
+    }
+}
+
+/// Streams hostile pack `index` on `src` as [`pack_stream_frames`] streams a pack, and says how it
+/// ended: refused with the reason, or its last pass (a pack that opens is drawn from what is
+/// resident; a bad block stays absent).
+pub fn hostile_pack_run<C: ChunkSource + ?Sized>(
+    index: u32,
+    src: &mut C,
+    mem: PackMemory<'_>,
+    targets: &mut SceneTargets<'_, PACK_BAND_ROWS>,
+    mark: impl FnMut(Phase),
+) -> HostilePackLine<C::Error> {
+    let (mut last, mut passes) = (None, 0);
+    let verdict = pack_stream_frames(src, mem, targets, mark, |f| {
+        last = Some(*f);
+        passes += 1;
+    })
+    .map(|_| {
+        let last = last.unwrap_or(StreamFrame {
+            leg: Leg::PackPx1,
+            index: 0,
+            az_deg: 0,
+            crc: 0,
+            missing: 1,
+            failed: 0,
+            marker: false,
+            read: 0,
+            prefetched: 0,
+            splats: 0,
+            nodes: 0,
+        });
+        (last, passes)
+    });
+    HostilePackLine { index, verdict }
 }

@@ -92,14 +92,27 @@ fn main() -> ! {
     }
     #[cfg(all(feature = "stream", feature = "scene"))]
     {
-        let (targets, mem) = pack_stream::pack_memory(
-            PACK,
-            PACK_TABLES,
-            PACK_OBJECTS,
-            #[cfg(feature = "shadows")]
-            LIGHT,
-        );
-        run::render_pack_stream(targets, mem);
+        #[cfg(not(feature = "selftest-hostile"))]
+        {
+            let (targets, mem) = pack_stream::pack_memory(
+                PACK,
+                PACK_TABLES,
+                PACK_OBJECTS,
+                #[cfg(feature = "shadows")]
+                LIGHT,
+            );
+            run::render_pack_stream(targets, mem);
+        }
+        #[cfg(feature = "selftest-hostile")]
+        {
+            let _ = &PACK_OBJECTS;
+            run::render_hostile_packs(
+                PACK,
+                PACK_TABLES,
+                #[cfg(feature = "shadows")]
+                LIGHT,
+            );
+        }
     }
     #[cfg(all(feature = "stream", feature = "scene"))]
     run::report_memory(psram_bytes);

@@ -12,10 +12,7 @@ use pocketsplat_qemu::{HEIGHT, WIDTH};
 use embedded_sdmmc::{Mode, VolumeIdx};
 #[cfg(feature = "stream")]
 use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
-#[cfg(all(
-    feature = "stream",
-    any(feature = "selftest-hostile", not(feature = "scene"))
-))]
+#[cfg(all(feature = "stream", not(feature = "scene")))]
 use pocketsplat_qemu::stream::StreamMemory;
 
 #[cfg(feature = "stream")]
@@ -187,7 +184,7 @@ const MODEL_FILE: &str = "MODEL.QS";
 
 /// With `selftest-hostile`: streams `H000.TG`, `H001.TG`, … of the image's first volume in turn
 /// until one is missing, one line each (`pocketsplat_qemu::hostile`), then `hostile done N`.
-#[cfg(feature = "selftest-hostile")]
+#[cfg(all(feature = "selftest-hostile", not(feature = "scene")))]
 pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
     use pocketsplat_qemu::hostile::{file_name, hostile_run};
     let disk = match HostDisk::open(IMAGE) {
@@ -221,10 +218,70 @@ pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
     hprintln!("hostile done {}", index);
 }
 
+/// With `selftest-hostile` and `scene`: streams `H000.PAK`, `H001.PAK`, … of the image's first
+/// volume in turn until one is missing, one line each
+/// (`pocketsplat_qemu::pack_stream::hostile_pack_run`), then `hostile done N`. Each run's object
+/// streams are on the stack (a static holds one run's).
+#[cfg(all(feature = "selftest-hostile", feature = "scene"))]
+pub fn render_hostile_packs(
+    buffers: &mut pocketsplat_qemu::pack_stream::PackBuffers,
+    tables: &mut pocketsplat_qemu::pack_stream::PackTables,
+    #[cfg(feature = "shadows")] light: &mut pocketsplat_core::shadow::LightFrame,
+) {
+    use pocketsplat_qemu::pack_stream::{
+        hostile_pack_name, hostile_pack_run, pack_memory, PackObjects,
+    };
+    let disk = match HostDisk::open(IMAGE) {
+        Ok(d) => d,
+        Err(e) => fail(format_args!("image: {e}")),
+    };
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+    let root = match volumes
+        .open_raw_volume(VolumeIdx(0))
+        .and_then(|v| volumes.open_root_dir(v))
+    {
+        Ok(r) => r,
+        Err(e) => fail(format_args!("volume: {e:?}")),
+    };
+    let mut index = 0;
+    loop {
+        let name = hostile_pack_name(index);
+        let name = core::str::from_utf8(&name).unwrap_or("H000.PAK");
+        let Ok(file) = volumes.open_file_in_dir(root, name, Mode::ReadOnly) else {
+            break;
+        };
+        let mut sd = SdFile::new(&volumes, file);
+        // Not dropped: the streams borrow the memory they sit beside for as long as they live
+        // (and own nothing that needs dropping).
+        let mut objects = core::mem::ManuallyDrop::new(PackObjects::new());
+        let (mut targets, mem) = pack_memory(
+            &mut *buffers,
+            &mut *tables,
+            &mut objects,
+            #[cfg(feature = "shadows")]
+            &mut *light,
+        );
+        hprintln!(
+            "{}",
+            hostile_pack_run(index, &mut sd, mem, &mut targets, marks::hit)
+        );
+        if let Err(e) = volumes.close_file(file) {
+            fail(format_args!("{name}: {e:?}"));
+        }
+        index += 1;
+    }
+    hprintln!("hostile done {}", index);
+}
+
 /// Opens the image, its first FAT volume and `SCENE.PAK`, and draws the pack's first view refined
 /// in passes band by band, one line per pass (`pocketsplat_qemu::pack_stream`); any failure to
 /// get that far ends the run with a message.
-#[cfg(all(feature = "stream", feature = "scene"))]
+#[cfg(all(
+    feature = "stream",
+    feature = "scene",
+    not(feature = "selftest-hostile")
+))]
 pub fn render_pack_stream(
     mut targets: pocketsplat_qemu::scene::SceneTargets<
         '_,
