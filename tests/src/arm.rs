@@ -553,6 +553,41 @@ pub fn baked_big_scene(rho: u8) -> Result<Option<PathBuf>> {
     Ok(Some(out))
 }
 
+/// The Big Scene as `boards/sim/scenes/big.toml` places it, baked in 1 KB blocks (its least
+/// cache falls from 228 KB in 4 KB blocks to 78 KB): what a 520 KB device streams. `None` off CI
+/// when a scan is missing ([`model`]).
+///
+/// # Errors
+/// When `big.toml` no longer has 4 KB blocks to change, or the bake fails.
+pub fn big_scene_in_1k_blocks() -> Result<Option<Vec<u8>>> {
+    for scan in BIG_SCENE_SCANS {
+        if model(scan).is_none() {
+            return Ok(None);
+        }
+    }
+    let text = fs::read_to_string(workspace_root().join("boards/sim/scenes/big.toml"))?;
+    ensure!(
+        text.contains("block_size = 4096"),
+        "big.toml's blocks changed"
+    );
+    let text = text
+        .replace("block_size = 4096", "block_size = 1024")
+        .replace(
+            "models = \"../../../../shared/models\"",
+            &format!("models = {:?}", crate::models_dir().display().to_string()),
+        );
+    // One bake at a time: tests running at once write the same file.
+    static BAKE: Mutex<()> = Mutex::new(());
+    let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = target_dir().join("models/big1k");
+    fs::create_dir_all(&dir)?;
+    let toml = dir.join("big1k.toml");
+    fs::write(&toml, text)?;
+    let baked = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
+        .with_context(|| format!("baking {}", toml.display()))?;
+    Ok(Some(baked.bytes))
+}
+
 /// The host's side of a scene comparison: the buffers the firmware keeps in statics for a pack, on
 /// the heap, and the library call the firmware makes to fill them.
 pub struct HostSceneFrames {

@@ -8,7 +8,6 @@
 
 use pocketsplat_core::scene::{Pack, Scene};
 use pocketsplat_core::shadow::LightFrame;
-use pocketsplat_core::stream::sdmmc::{NoClock, SdFile};
 use pocketsplat_core::tg::Verify;
 use pocketsplat_qemu::pack_stream::{
     pack_memory, pack_stream_frames, PackBuffers, PackObjects, PackTables, PACK_BANDS, PACK_FILE,
@@ -17,52 +16,12 @@ use pocketsplat_qemu::pack_stream::{
 use pocketsplat_qemu::stream::{StreamFrame, StreamTotals};
 use pocketsplat_sim::render::FrameBuffers;
 use pocketsplat_sim::scene::render::{render_pack, PackSettings};
-use pocketsplat_sim::stream::FileBlockDevice;
+use pocketsplat_sim::stream::sd::with_file;
 use pocketsplat_tests::arm::{check_memory, have_qemu, target_dir, Firmware, TARGET};
 use pocketsplat_tests::fat::{have, make_image};
 
-/// The Big Scene as `boards/sim/scenes/big.toml` places it, baked in 1 KB blocks (its least
-/// cache falls from 228 KB in 4 KB blocks to 78 KB); `None` when a scan is missing off CI.
-fn big_scene_in_1k_blocks() -> Option<Vec<u8>> {
-    for scan in pocketsplat_tests::arm::BIG_SCENE_SCANS {
-        pocketsplat_tests::model(scan)?;
-    }
-    let root = pocketsplat_tests::workspace_root();
-    let text = std::fs::read_to_string(root.join("boards/sim/scenes/big.toml")).unwrap();
-    assert!(
-        text.contains("block_size = 4096"),
-        "big.toml's blocks changed"
-    );
-    let models = pocketsplat_tests::models_dir();
-    let text = text
-        .replace("block_size = 4096", "block_size = 1024")
-        .replace(
-            "models = \"../../../../shared/models\"",
-            &format!("models = {:?}", models.display().to_string()),
-        );
-    let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("big1k.toml");
-    std::fs::write(&toml, text).unwrap();
-    Some(
-        pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
-            .unwrap()
-            .bytes,
-    )
-}
-
 /// The firmware's call on the host, over the same image, with the firmware's statics on the heap.
 fn host_run(image: &std::path::Path) -> (Vec<StreamFrame>, StreamTotals) {
-    let device = FileBlockDevice::open(image).unwrap();
-    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
-        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
-    let volume = volumes
-        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
-        .unwrap();
-    let root = volumes.open_root_dir(volume).unwrap();
-    let file = volumes
-        .open_file_in_dir(root, PACK_FILE, embedded_sdmmc::Mode::ReadOnly)
-        .unwrap();
-    let mut sd = SdFile::new(&volumes, file);
     // The firmware's statics, on the heap for the test's life (statics are too).
     let buffers = Box::leak(Box::new(PackBuffers::EMPTY));
     let tables = Box::leak(Box::new(PackTables::EMPTY));
@@ -70,8 +29,11 @@ fn host_run(image: &std::path::Path) -> (Vec<StreamFrame>, StreamTotals) {
     let light = Box::leak(Box::new(LightFrame::UNSET));
     let (mut targets, mem) = pack_memory(buffers, tables, objects, light);
     let mut lines = Vec::new();
-    let totals = pack_stream_frames(&mut sd, mem, &mut targets, |_| {}, |f| lines.push(*f))
-        .unwrap_or_else(|e| panic!("host run: {e}"));
+    let totals = with_file(image, PACK_FILE, |sd| {
+        pack_stream_frames(sd, mem, &mut targets, |_| {}, |f| lines.push(*f))
+            .map_err(|e| anyhow::anyhow!("host run: {e}"))
+    })
+    .unwrap();
     (lines, totals)
 }
 
@@ -80,7 +42,7 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
     if !have_qemu() || !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
         return;
     }
-    let Some(bytes) = big_scene_in_1k_blocks() else {
+    let Some(bytes) = pocketsplat_tests::arm::big_scene_in_1k_blocks().unwrap() else {
         return;
     };
     let dir = target_dir().join("models/sd-big1k");
@@ -220,29 +182,24 @@ fn hostile_packs_are_refused_under_qemu_as_on_the_host() {
     );
 
     // The same call on the host, over the same image.
-    let device = FileBlockDevice::open(&image).unwrap();
-    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
-        embedded_sdmmc::VolumeManager::new_with_limits(device, NoClock, 0);
-    let volume = volumes
-        .open_raw_volume(embedded_sdmmc::VolumeIdx(0))
-        .unwrap();
-    let root = volumes.open_root_dir(volume).unwrap();
     let mut buffers = Box::new(PackBuffers::EMPTY);
     let mut tables = Box::new(PackTables::EMPTY);
     let mut light = Box::new(LightFrame::UNSET);
-    let mut host = Vec::new();
-    for (i, name) in names.iter().enumerate() {
-        let file = volumes
-            .open_file_in_dir(root, name.as_str(), embedded_sdmmc::Mode::ReadOnly)
-            .unwrap();
-        let mut sd = SdFile::new(&volumes, file);
-        // As on the device: the streams borrow the memory beside them, and own nothing to drop.
-        let mut objects = std::mem::ManuallyDrop::new(PackObjects::new());
-        let (mut targets, mem) = pack_memory(&mut buffers, &mut tables, &mut objects, &mut light);
-        let line = hostile_pack_run(i as u32, &mut sd, mem, &mut targets, |_| {});
-        host.push(line.to_string());
-        volumes.close_file(file).unwrap();
-    }
+    let host: Vec<String> = names
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            // As on the device: the streams borrow the memory beside them, and own nothing to
+            // drop.
+            let mut objects = std::mem::ManuallyDrop::new(PackObjects::new());
+            let (mut targets, mem) =
+                pack_memory(&mut buffers, &mut tables, &mut objects, &mut light);
+            with_file(&image, name, |sd| {
+                Ok(hostile_pack_run(i as u32, sd, mem, &mut targets, |_| {}).to_string())
+            })
+            .unwrap()
+        })
+        .collect();
     assert_eq!(arm, host, "the lines differ between ARM and host");
     for (case, line) in cases.iter().zip(&arm) {
         assert!(

@@ -414,30 +414,11 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
 /// for more blocks to keep a table entry of) it must, before the stack, with room for one.
 #[test]
 fn the_big_scene_in_1k_blocks_fits_a_520_kb_device_before_its_stack() {
-    for scan in pocketsplat_tests::arm::BIG_SCENE_SCANS {
-        if pocketsplat_tests::model(scan).is_none() {
-            return;
-        }
-    }
-    let root = pocketsplat_tests::workspace_root();
-    let text = std::fs::read_to_string(root.join("boards/sim/scenes/big.toml")).unwrap();
-    assert!(
-        text.contains("block_size = 4096"),
-        "big.toml's blocks changed"
-    );
-    let models = pocketsplat_tests::models_dir();
-    let text = text
-        .replace("block_size = 4096", "block_size = 1024")
-        .replace(
-            "models = \"../../../../shared/models\"",
-            &format!("models = {:?}", models.display().to_string()),
-        );
+    let Some(bytes) = pocketsplat_tests::arm::big_scene_in_1k_blocks().unwrap() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("big1k.toml");
-    std::fs::write(&toml, text).unwrap();
-    let bytes = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
-        .unwrap()
-        .bytes;
+    let toml = dir.path().join("big1k.pack");
     let info = pocketsplat_sim::info::pack_info(&toml, &bytes).unwrap();
     let ram = info.device_ram;
     eprintln!(

@@ -422,20 +422,12 @@ pub fn pack_stream_frames<C: ChunkSource + ?Sized>(
             break;
         }
     }
-    let c = stream.counters();
-    Ok(StreamTotals {
-        bytes: c.bytes_read,
-        file_bytes: stream.scene().pack().file_len(),
-        frames: c.frames,
-        read_errors: c.read_errors,
-        crc_errors: c.crc_errors,
-        evictions: c.evictions,
-        cache_blocks: stream
-            .objects()
-            .iter()
-            .map(|o| o.cache_blocks().0 as u32)
-            .sum(),
-    })
+    let cache_blocks = stream.objects().iter().map(|o| o.cache_blocks().0 as u32);
+    Ok(StreamTotals::of(
+        &stream.counters(),
+        stream.scene().pack().file_len(),
+        cache_blocks.sum(),
+    ))
 }
 
 /// The name of hostile pack `index` on the volume (8.3): `H000.PAK`… (`selftest-hostile` with

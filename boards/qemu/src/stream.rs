@@ -348,6 +348,26 @@ pub struct StreamTotals {
     pub cache_blocks: u32,
 }
 
+impl StreamTotals {
+    /// The totals of a run whose streams counted `c`, over `file_bytes` through a cache of
+    /// `cache_blocks` blocks.
+    pub fn of(
+        c: &pocketsplat_core::stream::StreamCounters,
+        file_bytes: u64,
+        cache_blocks: u32,
+    ) -> Self {
+        Self {
+            bytes: c.bytes_read,
+            file_bytes,
+            frames: c.frames,
+            read_errors: c.read_errors,
+            crc_errors: c.crc_errors,
+            evictions: c.evictions,
+            cache_blocks,
+        }
+    }
+}
+
 impl fmt::Display for StreamTotals {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
@@ -554,16 +574,11 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
             }
         }
     }
-    let c = stream.counters();
-    Ok(StreamTotals {
-        bytes: c.bytes_read,
-        file_bytes: u64::from(stream.header().blocks) << stream.header().block_log2,
-        frames: c.frames,
-        read_errors: c.read_errors,
-        crc_errors: c.crc_errors,
-        evictions: c.evictions,
-        cache_blocks: stream.cache().capacity() as u32,
-    })
+    Ok(StreamTotals::of(
+        stream.counters(),
+        u64::from(stream.header().blocks) << stream.header().block_log2,
+        stream.cache().capacity() as u32,
+    ))
 }
 
 /// Blocks of a streamed `.qs` file in this sequence: 2 KB, so that the dragon (2.8 MB) fits
@@ -638,16 +653,11 @@ pub fn qs_stream_frames<C: ChunkSource + ?Sized>(
             break;
         }
     }
-    let c = stream.counters();
-    Ok(StreamTotals {
-        bytes: c.bytes_read,
-        file_bytes: stream.file_len(),
-        frames: c.frames,
-        read_errors: c.read_errors,
-        crc_errors: c.crc_errors,
-        evictions: c.evictions,
-        cache_blocks: stream.cache().capacity() as u32,
-    })
+    Ok(StreamTotals::of(
+        stream.counters(),
+        stream.file_len(),
+        stream.cache().capacity() as u32,
+    ))
 }
 
 #[cfg(test)]

@@ -187,6 +187,19 @@ const MODEL_FILE: &str = "MODEL.QS";
 #[cfg(all(feature = "selftest-hostile", not(feature = "scene")))]
 pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
     use pocketsplat_qemu::hostile::{file_name, hostile_run};
+    each_hostile_file(file_name, |index, sd| {
+        let line = hostile_run(index, sd, mem.reborrow(), &mut targets, marks::hit);
+        hprintln!("{}", line);
+    });
+}
+
+/// Hands the image's hostile files `name(0)`, `name(1)`, … (8.3 names in the first volume's root)
+/// to `run` in turn until one is missing, then prints `hostile done N`.
+#[cfg(feature = "selftest-hostile")]
+fn each_hostile_file<const L: usize>(
+    name: impl Fn(u32) -> [u8; L],
+    mut run: impl FnMut(u32, &mut SdFile<'_, HostDisk, NoClock, 1, 1, 1>),
+) {
     let disk = match HostDisk::open(IMAGE) {
         Ok(d) => d,
         Err(e) => fail(format_args!("image: {e}")),
@@ -202,14 +215,14 @@ pub fn render_stream(mut targets: Targets<'_>, mut mem: StreamMemory<'_>) {
     };
     let mut index = 0;
     loop {
-        let name = file_name(index);
-        let name = core::str::from_utf8(&name).unwrap_or("H000.TG");
+        let bytes = name(index);
+        let Ok(name) = core::str::from_utf8(&bytes) else {
+            break;
+        };
         let Ok(file) = volumes.open_file_in_dir(root, name, Mode::ReadOnly) else {
             break;
         };
-        let mut sd = SdFile::new(&volumes, file);
-        let line = hostile_run(index, &mut sd, mem.reborrow(), &mut targets, marks::hit);
-        hprintln!("{}", line);
+        run(index, &mut SdFile::new(&volumes, file));
         if let Err(e) = volumes.close_file(file) {
             fail(format_args!("{name}: {e:?}"));
         }
@@ -231,27 +244,7 @@ pub fn render_hostile_packs(
     use pocketsplat_qemu::pack_stream::{
         hostile_pack_name, hostile_pack_run, pack_memory, PackObjects,
     };
-    let disk = match HostDisk::open(IMAGE) {
-        Ok(d) => d,
-        Err(e) => fail(format_args!("image: {e}")),
-    };
-    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
-        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
-    let root = match volumes
-        .open_raw_volume(VolumeIdx(0))
-        .and_then(|v| volumes.open_root_dir(v))
-    {
-        Ok(r) => r,
-        Err(e) => fail(format_args!("volume: {e:?}")),
-    };
-    let mut index = 0;
-    loop {
-        let name = hostile_pack_name(index);
-        let name = core::str::from_utf8(&name).unwrap_or("H000.PAK");
-        let Ok(file) = volumes.open_file_in_dir(root, name, Mode::ReadOnly) else {
-            break;
-        };
-        let mut sd = SdFile::new(&volumes, file);
+    each_hostile_file(hostile_pack_name, |index, sd| {
         // Not dropped: the streams borrow the memory they sit beside for as long as they live
         // (and own nothing that needs dropping).
         let mut objects = core::mem::ManuallyDrop::new(PackObjects::new());
@@ -264,14 +257,9 @@ pub fn render_hostile_packs(
         );
         hprintln!(
             "{}",
-            hostile_pack_run(index, &mut sd, mem, &mut targets, marks::hit)
+            hostile_pack_run(index, sd, mem, &mut targets, marks::hit)
         );
-        if let Err(e) = volumes.close_file(file) {
-            fail(format_args!("{name}: {e:?}"));
-        }
-        index += 1;
-    }
-    hprintln!("hostile done {}", index);
+    });
 }
 
 /// Opens the image, its first FAT volume and `SCENE.PAK`, and draws the pack's first view refined
