@@ -195,6 +195,31 @@ impl Firmware<'_> {
         }
     }
 
+    /// The firmware for the reference target with `features` that streams from `image` (the
+    /// `stream` feature added).
+    pub fn streaming<'a>(features: &'a [&'a str], image: &'a Path) -> Firmware<'a> {
+        Firmware {
+            image: Some(image),
+            ..Firmware::plain(features)
+        }
+    }
+
+    /// Builds this firmware and runs it under QEMU: its ELF and its run, which ended through
+    /// semihosting with status 0.
+    ///
+    /// # Errors
+    /// When it does not build, QEMU cannot run it, or it exits otherwise.
+    pub fn build_and_run(&self) -> Result<(PathBuf, Run)> {
+        let elf = self.build()?;
+        let run = self.run(&elf, None)?;
+        ensure!(
+            run.output.status.code() == Some(0),
+            "the firmware must exit through semihosting with status 0:\n{}",
+            run.transcript()
+        );
+        Ok((elf, run))
+    }
+
     /// A name for this variant (`thumbv7m-none-eabi-model+shadows`).
     pub fn name(&self) -> String {
         let mut features: Vec<&str> = self.features.to_vec();

@@ -17,7 +17,7 @@ use pocketsplat_qemu::stream::{StreamFrame, StreamTotals};
 use pocketsplat_sim::render::FrameBuffers;
 use pocketsplat_sim::scene::render::{render_pack, PackSettings};
 use pocketsplat_sim::stream::sd::with_file;
-use pocketsplat_tests::arm::{check_memory, have_qemu, target_dir, Firmware, TARGET};
+use pocketsplat_tests::arm::{check_memory, have_qemu, target_dir, Firmware};
 use pocketsplat_tests::fat::{have, make_image};
 
 /// The firmware's call on the host, over the same image, with the firmware's statics on the heap.
@@ -48,21 +48,9 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
     let dir = target_dir().join("models/sd-big1k");
     std::fs::create_dir_all(&dir).unwrap();
     let image = make_image(&dir, &bytes, PACK_FILE);
-    let fw = Firmware {
-        target: TARGET,
-        panel: None,
-        features: &["scene", "shadows", "qsplat"],
-        model: None,
-        image: Some(&image),
-    };
-    let elf = fw.build().unwrap();
-    let run = fw.run(&elf, None).unwrap();
-    assert_eq!(
-        run.output.status.code(),
-        Some(0),
-        "the firmware must exit through semihosting with status 0:\n{}",
-        run.transcript()
-    );
+    let (elf, run) = Firmware::streaming(&["scene", "shadows", "qsplat"], &image)
+        .build_and_run()
+        .unwrap();
     let arm: Vec<StreamFrame> = run
         .stdout()
         .lines()
@@ -155,21 +143,9 @@ fn hostile_packs_are_refused_under_qemu_as_on_the_host() {
         .map(|(n, c)| (n.as_str(), &c.bytes[..]))
         .collect();
     let image = pocketsplat_tests::fat::make_image_of(&dir, &files);
-    let fw = Firmware {
-        target: TARGET,
-        panel: None,
-        features: &["selftest-hostile", "scene", "shadows", "qsplat"],
-        model: None,
-        image: Some(&image),
-    };
-    let elf = fw.build().unwrap();
-    let run = fw.run(&elf, None).unwrap();
-    assert_eq!(
-        run.output.status.code(),
-        Some(0),
-        "the firmware must exit through semihosting with status 0:\n{}",
-        run.transcript()
-    );
+    let (_, run) = Firmware::streaming(&["selftest-hostile", "scene", "shadows", "qsplat"], &image)
+        .build_and_run()
+        .unwrap();
     let stdout = run.stdout();
     let arm: Vec<&str> = stdout
         .lines()

@@ -343,21 +343,8 @@ fn the_qsplat_dragon_streams_from_a_fat_image_under_qemu_to_the_resident_frame()
     let dir = target_dir().join("models/sd-dragon-qs");
     std::fs::create_dir_all(&dir).unwrap();
     let image = make_image(&dir, &bytes, "MODEL.QS");
-    let fw = Firmware {
-        target: TARGET,
-        panel: None,
-        features: &["qsplat"],
-        model: None,
-        image: Some(&image),
-    };
-    let elf = fw.build().unwrap();
-    let run = fw.run(&elf, None).unwrap();
-    assert_eq!(
-        run.output.status.code(),
-        Some(0),
-        "the firmware must exit through semihosting with status 0:\n{}",
-        run.transcript()
-    );
+    let fw = Firmware::streaming(&["qsplat"], &image);
+    let (elf, run) = fw.build_and_run().unwrap();
     let arm: Vec<StreamFrame> = run
         .stdout()
         .lines()
