@@ -12,8 +12,8 @@
 //! QEMU.
 
 use pocketsplat_core::crc::Crc32;
-use pocketsplat_core::raster::{Band, Framebuffer};
-use pocketsplat_core::render::{render_scene_stream, Direct, StreamPass, Target};
+use pocketsplat_core::raster::Band;
+use pocketsplat_core::render::{render_scene_stream, Direct, StreamPass};
 use pocketsplat_core::scene::{Kind, MAX_META_BYTES, MAX_OBJECTS, MAX_SLOTS};
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
@@ -344,19 +344,10 @@ pub fn pack_stream_frames<C: ChunkSource + ?Sized>(
     let (mut rows_crc, mut failed_before, mut idle) = (Crc32::new(), 0, 0);
     let (mut band, mut first) = (0, true);
     for index in 0..PACK_MAX_PASSES {
-        let SceneTargets {
-            color,
-            depth,
-            table,
+        let target = targets.target(
             #[cfg(feature = "shadows")]
-            shadow,
-            #[cfg(feature = "shadows")]
-            light,
-            ..
-        } = targets;
-        let target = Target::new(Framebuffer::new(color, depth), &mut **table);
-        #[cfg(feature = "shadows")]
-        let target = target.with_shadows(&mut shadow[..PACK_MAP_TEXELS], light);
+            PACK_MAP_TEXELS,
+        );
         let top = (band * PACK_BAND_ROWS) as u16;
         let mut target = target.map_pixels(|f| {
             Band::new(f, top, PANEL)

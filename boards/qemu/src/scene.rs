@@ -64,6 +64,20 @@ pub struct SceneTargets<'a, const ROWS: usize = BAND_ROWS> {
     pub light: &'a mut LightFrame,
 }
 
+impl<const ROWS: usize> SceneTargets<'_, ROWS> {
+    /// The core's target over these buffers: the band's pixels, the table, and (with `shadows`)
+    /// the map's first `map_texels` and the light frame.
+    pub fn target(
+        &mut self,
+        #[cfg(feature = "shadows")] map_texels: usize,
+    ) -> Target<'_, Framebuffer<'_, WIDTH, ROWS>, MAX_SLOTS> {
+        let target = Target::new(Framebuffer::new(self.color, self.depth), self.table);
+        #[cfg(feature = "shadows")]
+        let target = target.with_shadows(&mut self.shadow[..map_texels], self.light);
+        target
+    }
+}
+
 /// One frame of a scene: a view of the pack and a cutoff.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -194,20 +208,12 @@ pub fn render_scene_bands<'p>(
                 mark(p);
             }
         };
-        let SceneTargets {
-            color,
-            depth,
-            table,
-            #[cfg(feature = "shadows")]
-            shadow,
-            #[cfg(feature = "shadows")]
-            light,
-            ..
-        } = targets;
-        let frame = Framebuffer::new(color, depth);
-        let target = Target::new(frame, &mut **table);
         #[cfg(feature = "shadows")]
-        let target = target.with_shadows(shadow, light);
+        let map = targets.shadow.len();
+        let target = targets.target(
+            #[cfg(feature = "shadows")]
+            map,
+        );
         let drawn = if BANDS == 1 {
             draw_in(scene, &camera, &options, target, band_mark)?
         } else {
