@@ -112,8 +112,7 @@ impl PackBuffers {
     };
 }
 
-/// A streamed pack's tables, whose empty entries are not zero (the device's `.data`, apart from
-/// the buffers so that flash holds only these): the cache's slots and one entry per block.
+/// A streamed pack's tables: the cache's slots and one entry per block.
 pub struct PackTables {
     /// Cache slots.
     pub slots: [SlotEntry; PACK_CACHE_SLOTS],
@@ -122,10 +121,11 @@ pub struct PackTables {
 }
 
 impl PackTables {
-    /// Empty tables.
+    /// Tables before a pack is opened, all zero bits (`.bss` on the device): each object's stream
+    /// empties the entries it uses first.
     pub const EMPTY: Self = Self {
-        slots: [SlotEntry::EMPTY; PACK_CACHE_SLOTS],
-        blocks: [BlockEntry::EMPTY; PACK_MAX_BLOCKS],
+        slots: [SlotEntry::UNSET; PACK_CACHE_SLOTS],
+        blocks: [BlockEntry::UNSET; PACK_MAX_BLOCKS],
     };
 }
 
@@ -313,11 +313,202 @@ fn missing_object(i: usize) -> pocketsplat_core::scene::SceneError {
     }
 }
 
-/// Opens the pack on `src` over `mem` and draws its first view (the std view if it has none) at 1 px with its shadows, refined
-/// in passes band by band into `targets` (their shadow map at least [`PACK_MAP_TEXELS`]), handing
-/// each pass's line to `report` (`mark` as [`crate::render_standard_view`]'s), until the last
-/// band's refined frame is complete, or for [`PACK_MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes
-/// that read nothing. A failed read leaves its block absent and is read again later.
+/// The camera and options a streamed pack's frames are drawn with at `view` and `cutoff_px`: the
+/// pack's own, with its shadow map at most [`PACK_MAP_SIZE`]².
+pub fn pack_frame_setup(
+    stream: &SceneStream<'_, '_, '_>,
+    view: pocketsplat_core::camera::View,
+    cutoff_px: f32,
+) -> (
+    pocketsplat_core::camera::Camera,
+    pocketsplat_core::render::RenderOptions,
+) {
+    let scene = stream.scene();
+    let mut options = scene.options().with_cutoff(cutoff_px);
+    options.shadow_map_size = options.shadow_map_size.min(PACK_MAP_SIZE);
+    (scene.camera(view), options)
+}
+
+/// The pack's first view (the std view for a pack without views).
+pub fn pack_first_view(stream: &SceneStream<'_, '_, '_>) -> pocketsplat_core::camera::View {
+    stream
+        .scene()
+        .pack()
+        .view(0)
+        .map_or(pocketsplat_core::camera::STANDARD_VIEWS[0].1, |(_, v)| v)
+}
+
+/// Draws band `band` of a streamed pack's frame into `targets` (a frame from what is resident, or
+/// with `pass` the next pass of its refined frame), its shadow map [`PACK_MAP_TEXELS`] at most.
+///
+/// # Errors
+/// When the frame cannot be set up ([`pocketsplat_core::render::RenderError`]).
+pub fn draw_band(
+    stream: &mut SceneStream<'_, '_, '_>,
+    camera: &pocketsplat_core::camera::Camera,
+    options: &pocketsplat_core::render::RenderOptions,
+    targets: &mut SceneTargets<'_, PACK_BAND_ROWS>,
+    band: usize,
+    pass: StreamPass,
+    mark: impl FnMut(Phase),
+) -> Result<pocketsplat_core::render::Drawn, pocketsplat_core::render::RenderError> {
+    let target = targets.target(
+        #[cfg(feature = "shadows")]
+        PACK_MAP_TEXELS,
+    );
+    let top = (band * PACK_BAND_ROWS) as u16;
+    let mut target = target.map_pixels(|f| {
+        Band::new(f, top, PANEL).expect("PACK_BANDS bands of PACK_BAND_ROWS rows tile the panel")
+    });
+    render_scene_stream(
+        stream,
+        camera,
+        options,
+        &mut target,
+        pass,
+        &mut Direct,
+        mark,
+    )
+}
+
+/// What a pass of [`BandPasses`] finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassEnd {
+    /// Nothing yet: the band needs more passes.
+    More,
+    /// The band is complete (its rows are in the targets' colour buffer); the next pass begins the
+    /// next band.
+    Band,
+    /// The last band is complete: the frame is done.
+    Frame,
+    /// [`MAX_IDLE_PASSES`] passes in a row read nothing intact: the frame ends on what it has.
+    Stuck,
+}
+
+/// A streamed pack's refined frame, drawn in passes band by band (each band's refined frame in its
+/// own passes, the next band begun when one is complete), one [`BandPasses::pass`] at a time: what
+/// the firmware's loop ([`pack_stream_frames`]) and a viewer that shows each band as it completes
+/// both step.
+#[derive(Clone)]
+pub struct BandPasses {
+    band: usize,
+    first: bool,
+    index: u32,
+    idle: u32,
+    failed_before: u32,
+    rows_crc: Crc32,
+}
+
+impl Default for BandPasses {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl BandPasses {
+    /// A refined frame not yet begun (its first pass draws band 0).
+    pub fn new() -> Self {
+        BandPasses {
+            band: 0,
+            first: true,
+            index: 0,
+            idle: 0,
+            failed_before: 0,
+            rows_crc: Crc32::new(),
+        }
+    }
+
+    /// The band the next pass draws (or the last one drew, once the frame is done).
+    pub fn band(&self) -> usize {
+        self.band
+    }
+
+    /// Passes drawn so far.
+    pub fn passes(&self) -> u32 {
+        self.index
+    }
+
+    /// One pass: draws the band at hand into `targets`, reads up to [`REFINE_IO_BUDGET_BYTES`]
+    /// from `src`, and says what the pass was (its line: CRC of the finished bands' rows and of
+    /// the band at hand, so that the last pass's is the whole frame's) and what it finished.
+    ///
+    /// # Errors
+    /// When the pass cannot be set up ([`pocketsplat_core::render::RenderError`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn pass<C: ChunkSource + ?Sized>(
+        &mut self,
+        stream: &mut SceneStream<'_, '_, '_>,
+        src: &mut C,
+        camera: &pocketsplat_core::camera::Camera,
+        options: &pocketsplat_core::render::RenderOptions,
+        targets: &mut SceneTargets<'_, PACK_BAND_ROWS>,
+        mark: impl FnMut(Phase),
+    ) -> Result<(StreamFrame, PassEnd), pocketsplat_core::render::RenderError> {
+        let pass = if self.first {
+            StreamPass::FirstPass
+        } else {
+            StreamPass::NextPass
+        };
+        self.first = false;
+        let drawn = draw_band(stream, camera, options, targets, self.band, pass, mark)?;
+        let done = stream.refined_done();
+        let last = self.band + 1 == PACK_BANDS;
+        let mut crc = self.rows_crc.clone();
+        crc.update_u16_le(targets.color.as_flattened());
+        let c = stream.counters();
+        let failed = c.read_errors + c.crc_errors + c.structure_errors - self.failed_before;
+        self.failed_before += failed;
+        let missing = if done && last {
+            stream.missing()
+        } else {
+            stream.missing().max(1)
+        };
+        let served = stream.serve(src, REFINE_IO_BUDGET_BYTES, true);
+        let line = StreamFrame {
+            leg: Leg::PackPx1,
+            index: self.index,
+            az_deg: 0,
+            crc: crc.finish(),
+            missing,
+            failed,
+            marker: failed > 0 || stream.inconsistent() > 0,
+            read: served.bytes,
+            // Not counted for a pack: its objects' blocks differ in size.
+            prefetched: 0,
+            splats: drawn.stats.splats,
+            nodes: drawn.stats.nodes_visited,
+        };
+        self.index += 1;
+        let end = if done {
+            if last {
+                PassEnd::Frame
+            } else {
+                self.rows_crc.update_u16_le(targets.color.as_flattened());
+                (self.band, self.first, self.idle) = (self.band + 1, true, 0);
+                PassEnd::Band
+            }
+        } else {
+            self.idle = if served.reads > served.failed {
+                0
+            } else {
+                self.idle + 1
+            };
+            if self.idle >= MAX_IDLE_PASSES {
+                PassEnd::Stuck
+            } else {
+                PassEnd::More
+            }
+        };
+        Ok((line, end))
+    }
+}
+
+/// Opens the pack on `src` over `mem` and draws its first view (the std view if it has none) at
+/// 1 px with its shadows, refined in passes band by band ([`BandPasses`]) into `targets` (their
+/// shadow map at least [`PACK_MAP_TEXELS`]), handing each pass's line to `report` (`mark` as
+/// [`crate::render_standard_view`]'s), until the last band's refined frame is complete, or for
+/// [`PACK_MAX_PASSES`] passes, or [`MAX_IDLE_PASSES`] passes that read nothing. A failed read
+/// leaves its block absent and is read again later.
 ///
 /// # Errors
 /// As [`open_pack`]; [`StreamRunError::View`] when a pass cannot be set up.
@@ -329,87 +520,18 @@ pub fn pack_stream_frames<C: ChunkSource + ?Sized>(
     mut report: impl FnMut(&StreamFrame),
 ) -> Result<StreamTotals, StreamRunError<C::Error>> {
     let mut stream = open_pack(src, mem)?;
-    let scene = stream.scene();
-    // The pack's first view; the std view for a pack without views.
-    let view = scene
-        .pack()
-        .view(0)
-        .map_or(pocketsplat_core::camera::STANDARD_VIEWS[0].1, |(_, v)| v);
-    let camera = scene.camera(view);
-    let mut options = scene.options().with_cutoff(1.0);
-    options.shadow_map_size = options.shadow_map_size.min(PACK_MAP_SIZE);
+    let (camera, options) = pack_frame_setup(&stream, pack_first_view(&stream), 1.0);
     // The materials' power tables, once, before the first pass.
-    targets.table.prepare(&scene.materials::<MAX_SLOTS>());
-    let leg = Leg::PackPx1;
-    let (mut rows_crc, mut failed_before, mut idle) = (Crc32::new(), 0, 0);
-    let (mut band, mut first) = (0, true);
-    for index in 0..PACK_MAX_PASSES {
-        let target = targets.target(
-            #[cfg(feature = "shadows")]
-            PACK_MAP_TEXELS,
-        );
-        let top = (band * PACK_BAND_ROWS) as u16;
-        let mut target = target.map_pixels(|f| {
-            Band::new(f, top, PANEL)
-                .expect("PACK_BANDS bands of PACK_BAND_ROWS rows tile the panel")
-        });
-        let pass = if first {
-            StreamPass::FirstPass
-        } else {
-            StreamPass::NextPass
-        };
-        first = false;
-        let drawn = render_scene_stream(
-            &mut stream,
-            &camera,
-            &options,
-            &mut target,
-            pass,
-            &mut Direct,
-            &mut mark,
-        )
-        .map_err(StreamRunError::View)?;
-        let done = stream.refined_done();
-        let last = band + 1 == PACK_BANDS;
-        let mut crc = rows_crc.clone();
-        crc.update_u16_le(targets.color.as_flattened());
-        let c = stream.counters();
-        let failed = c.read_errors + c.crc_errors + c.structure_errors - failed_before;
-        failed_before += failed;
-        let missing = if done && last {
-            stream.missing()
-        } else {
-            stream.missing().max(1)
-        };
-        let served = stream.serve(src, REFINE_IO_BUDGET_BYTES, true);
-        report(&StreamFrame {
-            leg,
-            index,
-            az_deg: 0,
-            crc: crc.finish(),
-            missing,
-            failed,
-            marker: failed > 0 || stream.inconsistent() > 0,
-            read: served.bytes,
-            // Not counted for a pack: its objects' blocks differ in size.
-            prefetched: 0,
-            splats: drawn.stats.splats,
-            nodes: drawn.stats.nodes_visited,
-        });
-        if done {
-            if last {
-                break;
-            }
-            rows_crc.update_u16_le(targets.color.as_flattened());
-            (band, first, idle) = (band + 1, true, 0);
-            continue;
-        }
-        idle = if served.reads > served.failed {
-            0
-        } else {
-            idle + 1
-        };
-        if idle >= MAX_IDLE_PASSES {
+    targets
+        .table
+        .prepare(&stream.scene().materials::<MAX_SLOTS>());
+    let mut passes = BandPasses::new();
+    while passes.passes() < PACK_MAX_PASSES {
+        let (line, end) = passes
+            .pass(&mut stream, src, &camera, &options, targets, &mut mark)
+            .map_err(StreamRunError::View)?;
+        report(&line);
+        if matches!(end, PassEnd::Frame | PassEnd::Stuck) {
             break;
         }
     }

@@ -109,10 +109,8 @@ impl<S: ChunkSource> ChunkSource for Pulled<S> {
 }
 
 /// The tables a [`TgStream`] of this sequence needs beside its cache blocks, in one piece (one
-/// `static mut` for cortex-m-rt's entry to hand over; a box on the host). Apart from the blocks
-/// because their empty entries are not zero: as a static they sit in `.data`, whose image flash
-/// holds, while the 64 KB of blocks stay in `.bss`. `BLOCKS` is the largest file it streams, in
-/// blocks (the handheld holds more than this sequence's [`MAX_FILE_BLOCKS`]).
+/// `static mut` for cortex-m-rt's entry to hand over; a box on the host). `BLOCKS` is the largest
+/// file it streams, in blocks (the handheld holds more than this sequence's [`MAX_FILE_BLOCKS`]).
 pub struct StreamTables<const BLOCKS: usize = MAX_FILE_BLOCKS> {
     /// Cache slots.
     pub slots: [SlotEntry; CACHE_SLOTS],
@@ -121,10 +119,11 @@ pub struct StreamTables<const BLOCKS: usize = MAX_FILE_BLOCKS> {
 }
 
 impl<const BLOCKS: usize> StreamTables<BLOCKS> {
-    /// Empty tables.
+    /// Tables before a file is opened, all zero bits (`.bss` on the device): the stream opened
+    /// over them empties every entry it uses first.
     pub const EMPTY: Self = Self {
-        slots: [SlotEntry::EMPTY; CACHE_SLOTS],
-        blocks: [BlockEntry::EMPTY; BLOCKS],
+        slots: [SlotEntry::UNSET; CACHE_SLOTS],
+        blocks: [BlockEntry::UNSET; BLOCKS],
     };
 }
 

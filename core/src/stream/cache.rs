@@ -62,6 +62,19 @@ impl BlockEntry {
         class: 0,
         flags: 0,
     };
+
+    /// An entry of all zero bits, for memory a board lays out before it opens a file (a `static`
+    /// in `.bss`, not `.data`): the stream opened over it sets every entry it uses to
+    /// [`Self::EMPTY`] first.
+    pub const UNSET: Self = Self {
+        crc: 0,
+        retry_at: 0,
+        slot: 0,
+        queued: 0,
+        fails: 0,
+        class: 0,
+        flags: 0,
+    };
 }
 
 /// What one cache slot holds (8 bytes).
@@ -79,6 +92,10 @@ impl SlotEntry {
         block: NO_BLOCK,
         used: 0,
     };
+
+    /// A slot of all zero bits (see [`BlockEntry::UNSET`]): the stream opened over it empties it
+    /// first.
+    pub const UNSET: Self = Self { block: 0, used: 0 };
 }
 
 /// A fixed-capacity cache of file blocks over caller-provided memory (no heap): `data` holds the
