@@ -25,6 +25,11 @@
 //! A read that fails (a card that errs or is pulled) leaves its block absent: frames go on from
 //! what is resident, with the red read-error marker in the top right corner
 //! ([`pocketsplat_qemu::stream::draw_error_marker`]), and a refinement that cannot finish ends there.
+//!
+//! With neither model on the card, a scene pack, `SCENE.PAK`, is shown with its shadows by a
+//! [`PackViewer`] ([`scene`]): the QEMU firmware's streamed pack, in four bands and a 128² shadow
+//! map, driven by the same buttons. A model's memory and a pack's are one [`Arena`] ([`memory`]),
+//! laid out for the file the card holds: the larger of the two, not both.
 #![no_std]
 #![deny(clippy::float_arithmetic)]
 
@@ -47,7 +52,7 @@ use pocketsplat_core::lod::{FrameRateController, FINEST_CUTOFF_PX};
 use pocketsplat_core::raster::Framebuffer;
 use pocketsplat_core::stream::sdmmc::SdFile;
 use pocketsplat_core::stream::{
-    ChunkSource, MemSource, OutOfRange, QsStream, StreamError, TgStream,
+    ChunkSource, MemSource, OutOfRange, QsStream, StreamCounters, StreamError, TgStream,
 };
 use pocketsplat_core::tg::TgError;
 use pocketsplat_qemu::stream::QS_BLOCK_LOG2;
@@ -64,11 +69,14 @@ pub use pocketsplat_qemu::stream::CACHE_BYTES;
 pub use pocketsplat_qemu::StreamTargets;
 
 /// Name of the model file in the SD card's root directory (8.3): a tri-grid, or else
-/// [`QS_MODEL_FILE`].
+/// [`QS_MODEL_FILE`], or else [`SCENE_FILE`].
 pub const MODEL_FILE: &str = "MODEL.TG";
 /// A QSplat file in the card's root, shown when there is no [`MODEL_FILE`] (streamed in 2 KB
 /// blocks, `pocketsplat_qemu::stream::QS_BLOCK_LOG2`).
 pub const QS_MODEL_FILE: &str = "MODEL.QS";
+/// A scene pack in the card's root, shown when there is neither [`MODEL_FILE`] nor
+/// [`QS_MODEL_FILE`]: drawn with its one-pass shadows ([`scene`]).
+pub const SCENE_FILE: &str = pocketsplat_qemu::pack_stream::PACK_FILE;
 /// Frame time the controller aims at while the camera moves, microseconds (5 fps).
 pub const TARGET_FRAME_US: u32 = 200_000;
 /// Cutoff of the first frame, pixels.
@@ -103,6 +111,12 @@ macro_rules! shown {
         $e
     };
 }
+
+pub mod memory;
+pub mod scene;
+
+pub use memory::{Arena, ModelArena, PackArena};
+pub use scene::{open_scene, PackViewer};
 
 /// The camera buttons, in the order [`Buttons::pins`] holds them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -227,6 +241,15 @@ pub enum LoadError {
     TooLarge(u32),
     /// A `.tg` of a version that cannot be streamed (1 or 2): it must be migrated to version 3.
     OldVersion(u16),
+    /// A scene pack whose objects need more of something than the viewer has at once.
+    PackMemory {
+        /// What (cache bytes, block entries, object streams).
+        what: &'static str,
+        /// How many the pack needs.
+        need: u32,
+        /// How many the viewer has.
+        have: u32,
+    },
 }
 
 impl core::fmt::Display for LoadError {
@@ -234,13 +257,17 @@ impl core::fmt::Display for LoadError {
         match self {
             LoadError::NoFile => write!(
                 f,
-                "No {MODEL_FILE} or {QS_MODEL_FILE}\non the SD card and no\nmodel in flash. See README."
+                "No {MODEL_FILE}, {QS_MODEL_FILE}\nor {SCENE_FILE} on the\nSD card and no model\nin flash. See README."
             ),
             LoadError::Read => write!(f, "{MODEL_FILE}: the card\nfailed to read it."),
             LoadError::Invalid => write!(f, "The model is not a\nvalid .tg or .qs file."),
             LoadError::OldVersion(v) => write!(
                 f,
                 "{MODEL_FILE} is version {v}.\nConvert it on a PC:\npocketsplat migrate"
+            ),
+            LoadError::PackMemory { what, need, have } => write!(
+                f,
+                "{SCENE_FILE} needs {need}\n{what}; this viewer\nhas {have}."
             ),
             LoadError::TooLarge(n) => write!(
                 f,
@@ -250,7 +277,7 @@ impl core::fmt::Display for LoadError {
     }
 }
 
-/// Opens [`MODEL_FILE`], or else [`QS_MODEL_FILE`], in the root of the first FAT volume of
+/// Opens [`MODEL_FILE`], or else [`QS_MODEL_FILE`], or else [`SCENE_FILE`], in the root of the first FAT volume of
 /// `volumes`. On an SD card in SPI mode call it with the bus at ≤ 400 kHz (the card initialises on
 /// the first read).
 ///
@@ -267,6 +294,7 @@ pub fn open_model<D: BlockDevice>(volumes: &Volumes<D>) -> Result<CardFile<'_, D
     let file: RawFile = volumes
         .open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)
         .or_else(|_| volumes.open_file_in_dir(root, QS_MODEL_FILE, Mode::ReadOnly))
+        .or_else(|_| volumes.open_file_in_dir(root, SCENE_FILE, Mode::ReadOnly))
         .map_err(|_| LoadError::NoFile)?;
     Ok(SdFile::new(volumes, file))
 }
@@ -422,10 +450,7 @@ pub struct Viewer<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> {
     orbit: Orbit,
     lod: FrameRateController,
     state: State,
-    /// Failed reads counted so far, and bytes read, when the marker was last decided.
-    failed_before: u32,
-    read_before: u64,
-    marker: bool,
+    marker: Marker,
 }
 
 impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, P, K> {
@@ -450,9 +475,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
                 converged: false,
                 tries: 0,
             },
-            failed_before: 0,
-            read_before: 0,
-            marker: false,
+            marker: Marker::default(),
         }
     }
 
@@ -531,6 +554,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
 
     /// Draws a whole frame at `cutoff_px` from what is resident, with the marker (and the HUD line
     /// when `hud`), sends it to the panel and reads up to `budget` bytes.
+    #[inline(never)]
     fn whole_frame(&mut self, cutoff_px: f32, budget: u32, hud: bool) -> FrameInfo {
         let t0 = self.clock.now_us();
         let drawn = render_model_stream(
@@ -593,6 +617,7 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
     }
 
     /// The next pass of the 1 px frame; shown when it completes the frame.
+    #[inline(never)]
     fn pass(&mut self, first: bool, idle: u32) -> StepOutcome {
         let t0 = self.clock.now_us();
         let intact = |s: &ModelStream<'_>| {
@@ -679,17 +704,9 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
         StepOutcome::Pass(info)
     }
 
-    /// Whether the marker is up after the frame just drawn: from a failed read until reads succeed
-    /// again with none failing (the QEMU firmware's rule, `pocketsplat_qemu::stream`).
     fn update_marker(&mut self) -> bool {
-        let c = *self.stream.counters();
-        let failed_total = c.read_errors + c.crc_errors + c.structure_errors;
-        let failed = failed_total - self.failed_before;
-        let read_ok = c.bytes_read > self.read_before;
-        self.failed_before = failed_total;
-        self.read_before = c.bytes_read;
-        self.marker = failed > 0 || self.stream.inconsistent() > 0 || (self.marker && !read_ok);
         self.marker
+            .update(self.stream.counters(), self.stream.inconsistent())
     }
 
     /// Sends the colour buffer to the panel in one window write.
@@ -699,6 +716,35 @@ impl<'a, C: ChunkSource, P: DrawTarget<Color = Rgb565>, K: Clock> Viewer<'a, C, 
         if fb.draw(&mut self.panel).is_err() {
             log!(error, "panel write failed");
         }
+    }
+}
+
+/// The read-error marker's state, for a model's frames and a pack's alike.
+#[derive(Clone, Copy, Debug, Default)]
+struct Marker {
+    /// Failed reads counted so far, and bytes read, when the marker was last decided.
+    failed_before: u32,
+    read_before: u64,
+    up: bool,
+}
+
+impl Marker {
+    /// Whether the marker is up after the frame just drawn (stream counters `c`, `inconsistent`
+    /// descents refused): from a failed read until reads succeed again with none failing (the QEMU
+    /// firmware's rule, `pocketsplat_qemu::stream`).
+    fn update(&mut self, c: &StreamCounters, inconsistent: u32) -> bool {
+        let failed_total = c.read_errors + c.crc_errors + c.structure_errors;
+        let failed = failed_total - self.failed_before;
+        let read_ok = c.bytes_read > self.read_before;
+        self.failed_before = failed_total;
+        self.read_before = c.bytes_read;
+        self.up = failed > 0 || inconsistent > 0 || (self.up && !read_ok);
+        self.up
+    }
+
+    /// Whether it is up.
+    fn up(&self) -> bool {
+        self.up
     }
 }
 
@@ -715,26 +761,17 @@ pub fn show_message<P: DrawTarget<Color = Rgb565>>(panel: &mut P, why: &LoadErro
     let _ = Text::new(text.as_str(), Point::new(8, 20), style).draw(panel);
 }
 
-/// The memory the viewer needs beside the panel's (statics on the board).
-pub struct Memory<'a> {
-    /// The block cache.
-    pub cache: &'a mut [u8; CACHE_BYTES],
-    /// Its tables.
-    pub tables: &'a mut StreamTables,
-    /// The frame's buffers.
-    pub targets: StreamTargets<'a>,
-}
-
-/// Runs the viewer forever on `card` and `panel`: streams [`MODEL_FILE`] from the card or, when it
-/// has none, `flash` (a `.tg` linked in; empty for none), moving the camera with `buttons` and
-/// polling them at 50 Hz once full detail is on screen. Without a model the panel says what to do.
-pub fn run<D, P, B, DL, K>(
+/// Runs the viewer forever on `card` and `panel`: streams [`MODEL_FILE`], [`QS_MODEL_FILE`] or
+/// [`SCENE_FILE`] from the card or, when it has none, `flash` (a `.tg` linked in; empty for none),
+/// with its memory laid out in `arena` for the kind of file, moving the camera with `buttons` and
+/// polling them at 50 Hz once full detail is on screen. Without a file the panel says what to do.
+pub fn run<'a, D, P, B, DL, K>(
     card: D,
     mut panel: P,
-    mut buttons: Buttons<B>,
+    buttons: Buttons<B>,
     mut delay: DL,
     clock: K,
-    mem: Memory<'_>,
+    arena: &'a mut Arena<'a>,
     flash: &'static [u8],
 ) -> !
 where
@@ -756,11 +793,69 @@ where
             halt("no model", &mut delay);
         }
     };
-    let Memory {
-        cache,
-        tables,
-        targets,
-    } = mem;
+    let mut magic = [0u8; 8];
+    let _ = src.read_at(0, &mut magic);
+    if pocketsplat_qemu::scene::is_pack(&magic) {
+        run_pack(src, panel, buttons, delay, clock, arena)
+    }
+    run_model(src, panel, buttons, delay, clock, arena)
+}
+
+/// [`run`] for a scene pack: apart (and not inlined) so that the stack holds one viewer's frame,
+/// not both.
+#[inline(never)]
+fn run_pack<'a, D, P, B, DL, K>(
+    mut src: ModelSource<'_, D>,
+    mut panel: P,
+    mut buttons: Buttons<B>,
+    mut delay: DL,
+    clock: K,
+    arena: &'a mut Arena<'a>,
+) -> !
+where
+    D: BlockDevice,
+    P: DrawTarget<Color = Rgb565>,
+    B: InputPin,
+    DL: DelayNs,
+    K: Clock,
+{
+    {
+        let (stream, targets) = match open_scene(&mut src, arena.pack()) {
+            Ok(s) => s,
+            Err(e) => {
+                show_message(&mut panel, &e);
+                halt("no scene", &mut delay);
+            }
+        };
+        log!(
+            info,
+            "scene: a pack, {} bytes, {} objects",
+            stream.scene().pack().file_len(),
+            stream.objects().len()
+        );
+        let mut viewer = PackViewer::new(stream, src, panel, clock, targets);
+        forever(|held| viewer.step(held), &mut buttons, &mut delay)
+    }
+}
+
+/// [`run`] for a `.tg` or `.qs` model (see [`run_pack`]).
+#[inline(never)]
+fn run_model<'a, D, P, B, DL, K>(
+    mut src: ModelSource<'_, D>,
+    mut panel: P,
+    mut buttons: Buttons<B>,
+    mut delay: DL,
+    clock: K,
+    arena: &'a mut Arena<'a>,
+) -> !
+where
+    D: BlockDevice,
+    P: DrawTarget<Color = Rgb565>,
+    B: InputPin,
+    DL: DelayNs,
+    K: Clock,
+{
+    let (cache, tables, targets) = arena.model().parts();
     let stream = match open_stream(&mut src, cache, tables) {
         Ok(s) => s,
         Err(e) => {
@@ -790,8 +885,17 @@ where
         }
     }
     let mut viewer = Viewer::new(stream, src, panel, clock, targets);
+    forever(|held| viewer.step(held), &mut buttons, &mut delay)
+}
+
+/// Steps a viewer with the buttons held, forever, waiting 20 ms after each step that drew nothing.
+fn forever<B: InputPin>(
+    mut step: impl FnMut([bool; 6]) -> StepOutcome,
+    buttons: &mut Buttons<B>,
+    delay: &mut impl DelayNs,
+) -> ! {
     loop {
-        if viewer.step(buttons.held()) == StepOutcome::Idle {
+        if step(buttons.held()) == StepOutcome::Idle {
             delay.delay_ms(20);
         }
     }

@@ -10,6 +10,11 @@
 //!   same file and view at 1 px (the firmware's `render_view`, and `pocketsplat render`'s).
 //! - `a_pulled_card_leaves_the_marker_and_the_loop_running`: the card stops answering mid-orbit; the
 //!   loop goes on drawing what is resident, shows the read-error marker, and comes to rest.
+//! - `a_qsplat_model_on_the_card_refines_to_the_resident_frame`: the same loop over `MODEL.QS`.
+//! - `a_scene_pack_on_the_card_refines_to_the_resident_frame`: `SCENE.PAK`, two objects with
+//!   one-pass shadows, through the [`PackViewer`](pocketsplat_handheld::PackViewer): coarse frames
+//!   band by band while the camera moves, then the 1 px frame in passes, band by band, ending on
+//!   the resident pack's frame in the same bands.
 //!
 //! Needs `mkfs.fat` (dosfstools), `mcopy` (mtools) and the bunny scan: without them this fails
 //! under CI and is skipped, with a note, elsewhere.
@@ -472,4 +477,157 @@ fn core_frame_crc(model: &Model<'_>, view: View) -> u32 {
         render(model, &camera, &options, &mut target).unwrap();
     }
     Framebuffer::new(&mut color, &mut depth).crc()
+}
+
+/// A scene pack on the card as `SCENE.PAK` (and no model): two objects, the depth-6 bunny as a
+/// tri-grid (5 MB in 4 KB blocks) and the coarse bunny scan as a QSplat file beside it, with one-pass shadows. The
+/// same script moves the camera with coarse frames from what is resident; once released the loop
+/// refines the 1 px frame band by band through the pack's 80 KB cache, and the panel's last frame
+/// has the CRC of the pack opened whole, drawn by the core's root API in the same four bands with
+/// the same 128² map (issue 31).
+#[test]
+fn a_scene_pack_on_the_card_refines_to_the_resident_frame() {
+    use pocketsplat_core::camera::{Placement, Sphere};
+    use pocketsplat_core::scene::write::{write_pack, PackContents, PackObject};
+    use pocketsplat_core::scene::{Kind, Pack, Scene};
+    use pocketsplat_core::shade::{ShadowMode, DEFAULT_MATERIAL};
+    use pocketsplat_handheld::{open_scene, Arena, PackViewer};
+    if !have("mkfs.fat", "dosfstools") | !have("mcopy", "mtools") {
+        return;
+    }
+    let Some(tg) = bunny_tg() else {
+        return;
+    };
+    // The coarser scan for the QSplat object: a QSplat stream's least cache is 68 blocks of 2 KB
+    // or its whole file, and the 80 KB the pack's objects share must hold the grid's too.
+    let Some(coarse) = pocketsplat_fixture::models::model("bun_zipper_res3.ply") else {
+        return;
+    };
+    let coarse = pocketsplat_fixture::scan::read_ascii_ply(&coarse);
+    let qs = pocketsplat_core::qs::write::bake_qs(&coarse, &Default::default())
+        .unwrap()
+        .bytes;
+    let object = |name: &str, kind, data: &[u8], x: f64| PackObject {
+        name: name.into(),
+        kind,
+        data: data.to_vec(),
+        // The scans are 0.15 m tall: six times that, side by side.
+        placement: Placement {
+            scale: 6.0,
+            translation: [x, -0.66, 0.0],
+            ..Placement::IDENTITY
+        },
+        slots: vec![0],
+        casts_shadows: true,
+        ground: false,
+        in_bounds: true,
+        depth_asked: 6,
+        depth_kept: 6,
+        savings: Default::default(),
+    };
+    let file = write_pack(&PackContents {
+        objects: vec![
+            object("grid", Kind::TriGrid, &tg, -0.45),
+            object("splats", Kind::QSplat, &qs, 0.55),
+        ],
+        materials: vec![("clay".into(), DEFAULT_MATERIAL)],
+        views: vec![("std".into(), View::new(20.0, 25.0, 2.2))],
+        path: vec![],
+        light_az_el: (-40.0, 55.0),
+        shadows: ShadowMode::OnePass,
+        shadow_map_size: 256,
+        fov_deg: 45.0,
+        min_cell_px: 0.0,
+        sphere: Sphere {
+            center: [0.0; 3],
+            radius: 1.2,
+        },
+        align_log2: 10,
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let image = std::fs::read(make_image(dir.path(), &file, "SCENE.PAK")).unwrap();
+
+    let volumes = volumes(ImageCard {
+        image,
+        pulled: Rc::new(Cell::new(false)),
+    });
+    let mut src = ModelSource::Card(open_model(&volumes).expect("the pack on the card"));
+    let arena: &'static mut Arena<'static> = Box::leak(Box::new(Arena::Free));
+    let (stream, targets) = open_scene(&mut src, arena.pack()).expect("a streamable pack");
+    let mut viewer = PackViewer::new(stream, src, Recorder::new(), SlowClock(0), targets);
+    let mut outcomes = Vec::new();
+    for held in [
+        Button::Right.alone(),
+        Button::Right.alone(),
+        Button::ZoomIn.alone(),
+    ] {
+        outcomes.push(viewer.step(held));
+    }
+    let max_steps = 2 * pocketsplat_qemu::pack_stream::PACK_MAX_PASSES as usize;
+    for _ in 0..max_steps {
+        let o = viewer.step([false; 6]);
+        outcomes.push(o);
+        if o == StepOutcome::Idle {
+            break;
+        }
+    }
+    let n = outcomes.len();
+    assert_eq!(outcomes[n - 1], StepOutcome::Idle, "the loop comes to rest");
+    let StepOutcome::Refined(last) = outcomes[n - 2] else {
+        panic!("the step before rest is {:?}", outcomes[n - 2]);
+    };
+    assert_eq!((last.cutoff_px, last.missing), (1.0, 0));
+    assert!(matches!(outcomes[0], StepOutcome::Frame(f) if f.cutoff_px == 4.0));
+    assert!(
+        !outcomes.iter().filter_map(info).any(|f| f.marker),
+        "a clean card never shows the read-error marker"
+    );
+    let passes = outcomes
+        .iter()
+        .filter(|o| matches!(o, StepOutcome::Pass(_)))
+        .count();
+
+    // The pack opened whole, drawn band by band as the viewer draws it.
+    let scene = Scene::open(Pack::open(&file).unwrap(), Verify::Full).unwrap();
+    let want = resident_pack_crc(scene, viewer.view());
+    assert_eq!(
+        viewer.panel().crc(),
+        want,
+        "the panel's last frame is not the resident render"
+    );
+    eprintln!(
+        "handheld loop, SCENE.PAK ({} bytes, 2 objects, one-pass shadows): {n} steps, {passes} \
+         passes, {} bytes read in all; last frame crc {want:#010x}",
+        file.len(),
+        viewer.stream().counters().bytes_read,
+    );
+}
+
+/// CRC of `scene` seen from `view` at 1 px with its shadows in a map of at most
+/// `PACK_MAP_SIZE`², drawn by the core's root API in the streamed pack's bands.
+fn resident_pack_crc(scene: pocketsplat_core::scene::Scene<'_>, view: View) -> u32 {
+    use pocketsplat_core::raster::Band;
+    use pocketsplat_core::shadow::LightFrame;
+    use pocketsplat_core::{render, Framebuffer, Model, Target};
+    use pocketsplat_qemu::pack_stream::{PACK_BANDS, PACK_BAND_ROWS, PACK_MAP_SIZE};
+    let mut color = Box::new([[0u16; WIDTH]; PACK_BAND_ROWS]);
+    let mut depth = Box::new([[0u16; WIDTH]; PACK_BAND_ROWS]);
+    let mut table = Box::new(pocketsplat_qemu::scene::SceneTable::new());
+    let mut map = vec![0u16; PACK_MAP_SIZE * PACK_MAP_SIZE];
+    let mut light = Box::new(LightFrame::UNSET);
+    let camera = scene.camera(view);
+    let mut options = scene.options().with_cutoff(1.0);
+    let model = Model::Scene(scene);
+    options.shadow_map_size = options.shadow_map_size.min(PACK_MAP_SIZE);
+    let mut crc = Crc32::new();
+    for band in 0..PACK_BANDS {
+        let top = (band * PACK_BAND_ROWS) as u16;
+        let target = Target::new(Framebuffer::new(&mut color, &mut depth), &mut table)
+            .with_shadows(&mut map, &mut light);
+        let mut target = target.map_pixels(|f| Band::new(f, top, pocketsplat_qemu::PANEL).unwrap());
+        render(&model, &camera, &options, &mut target).unwrap();
+        crc.update_u16_le(color.as_flattened());
+    }
+    crc.finish()
 }

@@ -2,8 +2,8 @@
 //! plugged into a Waveshare Pico-ResTouch-LCD-2.8 (ST7789 240×320 IPS panel and a micro-SD slot on
 //! SPI1), with six push buttons from GP2–GP7 to ground. Wiring and flashing: `../README.md`.
 //!
-//! This file only binds pins: the viewer is [`pocketsplat_handheld::run`], which streams `MODEL.TG`
-//! from the card for as long as it runs. The panel and the card share SPI1 through
+//! This file only binds pins: the viewer is [`pocketsplat_handheld::run`], which streams `MODEL.TG`,
+//! `MODEL.QS` or `SCENE.PAK` from the card for as long as it runs. The panel and the card share SPI1 through
 //! `embedded-hal-bus`'s `RefCellDevice`, one chip select each; the touch controller's chip select is
 //! held high so it stays off the bus. The card is initialised at 400 kHz, then the bus goes to
 //! 25 MHz, the most an SD card takes in SPI mode (the panel, which would take 62.5, shares it).
@@ -20,11 +20,7 @@ use hal::clocks::Clock as _;
 use hal::fugit::RateExtU32;
 use hal::gpio::{FunctionSpi, PinState};
 use panic_probe as _;
-use pocketsplat_core::shade::ShadingTable;
-use pocketsplat_handheld::{
-    halt, init_panel, run, Buttons, Clock, Memory, Panel, StreamTables, StreamTargets, CACHE_BYTES,
-};
-use pocketsplat_qemu::{HEIGHT, WIDTH};
+use pocketsplat_handheld::{halt, init_panel, run, Arena, Buttons, Clock, Panel};
 use rp235x_hal as hal;
 
 /// Tells the boot ROM this is a secure Arm executable.
@@ -57,12 +53,9 @@ impl Clock for Timer {
 
 #[hal::entry]
 fn main() -> ! {
-    // cortex-m-rt turns these into `&'static mut` in .bss (RAM), not on the stack.
-    static mut COLOR: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
-    static mut DEPTH: [[u16; WIDTH]; HEIGHT] = [[0; WIDTH]; HEIGHT];
-    static mut TABLE: ShadingTable<1> = ShadingTable::new();
-    static mut CACHE: [u8; CACHE_BYTES] = [0; CACHE_BYTES];
-    static mut TABLES: StreamTables = StreamTables::EMPTY;
+    // cortex-m-rt turns these into `&'static mut` in .bss (RAM), not on the stack. The arena is
+    // laid out for a model or a scene pack once the card says which (`pocketsplat_handheld::memory`).
+    static mut ARENA: Arena<'static> = Arena::Free;
     static mut SPI_BUFFER: [u8; 4096] = [0; 4096];
 
     let mut pac = hal::pac::Peripherals::take().expect("peripherals taken once");
@@ -144,15 +137,7 @@ fn main() -> ! {
         buttons,
         delay,
         Timer(timer),
-        Memory {
-            cache: CACHE,
-            tables: TABLES,
-            targets: StreamTargets {
-                color: COLOR,
-                depth: DEPTH,
-                table: TABLE,
-            },
-        },
+        ARENA,
         FLASH_MODEL,
     )
 }
