@@ -81,8 +81,9 @@ pub const SCENE_FILE: &str = pocketsplat_qemu::pack_stream::PACK_FILE;
 pub const TARGET_FRAME_US: u32 = 200_000;
 /// Cutoff of the first frame, pixels.
 pub const FIRST_CUTOFF_PX: f32 = 4.0;
-/// Blocks a streamed file may have (one [`BlockEntry`](pocketsplat_core::stream::BlockEntry) each, 16 bytes: 64 KB of RAM): 16 MB in
-/// 4 KB blocks, twice what the QEMU firmware allows, so that a depth-6 dragon fits too.
+/// Blocks a streamed file may have (one [`BlockEntry`](pocketsplat_core::stream::BlockEntry) each,
+/// 16 bytes: 64 KB of RAM): 16 MB in 4 KB blocks, twice what the QEMU firmware allows, so that a
+/// depth-6 dragon fits too.
 pub const MAX_FILE_BLOCKS: usize = 4096;
 
 /// Logs with defmt when the `defmt` feature is on; otherwise nothing (the arguments are still
