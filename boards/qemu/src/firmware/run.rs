@@ -262,6 +262,39 @@ pub fn render_hostile_packs(
     });
 }
 
+/// Opens the image, its first FAT volume and `name` in its root, printing `image blocks N` and
+/// `<what> file NAME bytes N`, hands the file to `run`, then prints `sectors_read N`; any failure to
+/// get as far as `run` ends the run with a message.
+#[cfg(all(feature = "stream", not(feature = "selftest-hostile")))]
+fn with_image_file(
+    what: &str,
+    name: &str,
+    run: impl FnOnce(SdFile<'_, HostDisk, NoClock, 1, 1, 1>),
+) {
+    let disk = match HostDisk::open(IMAGE) {
+        Ok(d) => d,
+        Err(e) => fail(format_args!("image: {e}")),
+    };
+    hprintln!("image blocks {}", disk.blocks);
+    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
+        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
+    let file = volumes
+        .open_raw_volume(VolumeIdx(0))
+        .and_then(|v| volumes.open_root_dir(v))
+        .and_then(|root| volumes.open_file_in_dir(root, name, Mode::ReadOnly));
+    let file = match file {
+        Ok(f) => f,
+        Err(e) => fail(format_args!("{name}: {e:?}")),
+    };
+    let sd = SdFile::new(&volumes, file);
+    match sd.len() {
+        Ok(n) => hprintln!("{} file {} bytes {}", what, name, n),
+        Err(e) => fail(format_args!("{name}: {e:?}")),
+    }
+    run(sd);
+    hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+}
+
 /// Opens the image, its first FAT volume and `SCENE.PAK`, and draws the pack's first view refined
 /// in passes band by band, one line per pass (`pocketsplat_qemu::pack_stream`); any failure to
 /// get that far ends the run with a message.
@@ -278,32 +311,13 @@ pub fn render_pack_stream(
     mem: pocketsplat_qemu::pack_stream::PackMemory<'_>,
 ) {
     use pocketsplat_qemu::pack_stream::{pack_stream_frames, PACK_FILE};
-    let disk = match HostDisk::open(IMAGE) {
-        Ok(d) => d,
-        Err(e) => fail(format_args!("image: {e}")),
-    };
-    hprintln!("image blocks {}", disk.blocks);
-    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
-        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
-    let file = volumes
-        .open_raw_volume(VolumeIdx(0))
-        .and_then(|v| volumes.open_root_dir(v))
-        .and_then(|root| volumes.open_file_in_dir(root, PACK_FILE, Mode::ReadOnly));
-    let file = match file {
-        Ok(f) => f,
-        Err(e) => fail(format_args!("{PACK_FILE}: {e:?}")),
-    };
-    let mut sd = SdFile::new(&volumes, file);
-    match sd.len() {
-        Ok(n) => hprintln!("pack file {} bytes {}", PACK_FILE, n),
-        Err(e) => fail(format_args!("{PACK_FILE}: {e:?}")),
-    }
-    let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
-    match pack_stream_frames(&mut sd, mem, &mut targets, marks::hit, report) {
-        Ok(totals) => hprintln!("{}", totals),
-        Err(e) => fail(format_args!("stream: {e}")),
-    }
-    hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+    with_image_file("pack", PACK_FILE, |mut sd| {
+        let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
+        match pack_stream_frames(&mut sd, mem, &mut targets, marks::hit, report) {
+            Ok(totals) => hprintln!("{}", totals),
+            Err(e) => fail(format_args!("stream: {e}")),
+        }
+    });
 }
 
 #[cfg(all(
@@ -314,49 +328,35 @@ pub fn render_pack_stream(
 /// Opens the image, its first FAT volume and [`MODEL_FILE`], and draws the streamed
 /// sequence, one line per frame; any failure to get that far ends the run with a message.
 pub fn render_stream(mut targets: Targets<'_>, mem: StreamMemory<'_>) {
-    let disk = match HostDisk::open(IMAGE) {
-        Ok(d) => d,
-        Err(e) => fail(format_args!("image: {e}")),
-    };
-    hprintln!("image blocks {}", disk.blocks);
-    let volumes: embedded_sdmmc::VolumeManager<_, _, 1, 1, 1> =
-        embedded_sdmmc::VolumeManager::new_with_limits(disk, NoClock, 0);
-    let file = volumes
-        .open_raw_volume(VolumeIdx(0))
-        .and_then(|v| Ok((v, volumes.open_root_dir(v)?)))
-        .and_then(|(v, root)| {
-            Ok((
-                v,
-                volumes.open_file_in_dir(root, MODEL_FILE, Mode::ReadOnly)?,
-            ))
-        });
-    let (_volume, file) = match file {
-        Ok(f) => f,
-        Err(e) => fail(format_args!("{MODEL_FILE}: {e:?}")),
-    };
-    let sd = SdFile::new(&volumes, file);
-    match sd.len() {
-        Ok(n) => hprintln!("model file {} bytes {}", MODEL_FILE, n),
-        Err(e) => fail(format_args!("{MODEL_FILE}: {e:?}")),
-    }
-    // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably); with
-    // `selftest-pulled`, the card is pulled during the orbit.
-    #[cfg(feature = "selftest-flaky")]
-    let mut src = pocketsplat_qemu::stream::flaky(sd);
-    #[cfg(all(feature = "selftest-pulled", not(feature = "selftest-flaky")))]
-    let mut src = pocketsplat_qemu::stream::pulled(sd);
-    #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
-    let mut src = sd;
-    let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
-    #[cfg(not(feature = "qsplat"))]
-    let run =
-        pocketsplat_qemu::stream::stream_frames(&mut src, mem, &mut targets, marks::hit, report);
-    #[cfg(feature = "qsplat")]
-    let run =
-        pocketsplat_qemu::stream::qs_stream_frames(&mut src, mem, &mut targets, marks::hit, report);
-    match run {
-        Ok(totals) => hprintln!("{}", totals),
-        Err(e) => fail(format_args!("stream: {e}")),
-    }
-    hprintln!("sectors_read {}", volumes.device(|d| d.reads.get()));
+    with_image_file("model", MODEL_FILE, |sd| {
+        // With `selftest-flaky`, reads fail or arrive damaged at random (repeatably); with
+        // `selftest-pulled`, the card is pulled during the orbit.
+        #[cfg(feature = "selftest-flaky")]
+        let mut src = pocketsplat_qemu::stream::flaky(sd);
+        #[cfg(all(feature = "selftest-pulled", not(feature = "selftest-flaky")))]
+        let mut src = pocketsplat_qemu::stream::pulled(sd);
+        #[cfg(not(any(feature = "selftest-flaky", feature = "selftest-pulled")))]
+        let mut src = sd;
+        let report = |f: &pocketsplat_qemu::stream::StreamFrame| hprintln!("{}", f);
+        #[cfg(not(feature = "qsplat"))]
+        let run = pocketsplat_qemu::stream::stream_frames(
+            &mut src,
+            mem,
+            &mut targets,
+            marks::hit,
+            report,
+        );
+        #[cfg(feature = "qsplat")]
+        let run = pocketsplat_qemu::stream::qs_stream_frames(
+            &mut src,
+            mem,
+            &mut targets,
+            marks::hit,
+            report,
+        );
+        match run {
+            Ok(totals) => hprintln!("{}", totals),
+            Err(e) => fail(format_args!("stream: {e}")),
+        }
+    });
 }
