@@ -796,37 +796,44 @@ where
     };
     let mut magic = [0u8; 8];
     let _ = src.read_at(0, &mut magic);
+    let board = Board {
+        panel,
+        buttons,
+        delay,
+        clock,
+    };
     if pocketsplat_qemu::scene::is_pack(&magic) {
-        run_pack(src, panel, buttons, delay, clock, arena)
+        board.run_pack(src, arena)
     }
-    run_model(src, panel, buttons, delay, clock, arena)
+    board.run_model(src, arena)
 }
 
-/// [`run`] for a scene pack: apart (and not inlined) so that the stack holds one viewer's frame,
-/// not both.
-#[inline(never)]
-fn run_pack<'a, D, P, B, DL, K>(
-    mut src: ModelSource<'_, D>,
-    mut panel: P,
-    mut buttons: Buttons<B>,
-    mut delay: DL,
+/// What [`run`] drives besides the card: the panel, the buttons, a delay and the clock.
+struct Board<P, B, DL, K> {
+    panel: P,
+    buttons: Buttons<B>,
+    delay: DL,
     clock: K,
-    arena: &'a mut Arena<'a>,
-) -> !
+}
+
+impl<P, B, DL, K> Board<P, B, DL, K>
 where
-    D: BlockDevice,
     P: DrawTarget<Color = Rgb565>,
     B: InputPin,
     DL: DelayNs,
     K: Clock,
 {
-    {
+    /// [`run`] for a scene pack: apart (and not inlined) so that the stack holds one viewer's
+    /// frame, not both.
+    #[inline(never)]
+    fn run_pack<'a, D: BlockDevice>(
+        mut self,
+        mut src: ModelSource<'_, D>,
+        arena: &'a mut Arena<'a>,
+    ) -> ! {
         let (stream, targets) = match open_scene(&mut src, arena.pack()) {
             Ok(s) => s,
-            Err(e) => {
-                show_message(&mut panel, &e);
-                halt("no scene", &mut delay);
-            }
+            Err(e) => self.refuse(&e),
         };
         log!(
             info,
@@ -834,59 +841,52 @@ where
             stream.scene().pack().file_len(),
             stream.objects().len()
         );
-        let mut viewer = PackViewer::new(stream, src, panel, clock, targets);
-        forever(|held| viewer.step(held), &mut buttons, &mut delay)
+        let mut viewer = PackViewer::new(stream, src, self.panel, self.clock, targets);
+        forever(|held| viewer.step(held), &mut self.buttons, &mut self.delay)
     }
-}
 
-/// [`run`] for a `.tg` or `.qs` model (see [`run_pack`]).
-#[inline(never)]
-fn run_model<'a, D, P, B, DL, K>(
-    mut src: ModelSource<'_, D>,
-    mut panel: P,
-    mut buttons: Buttons<B>,
-    mut delay: DL,
-    clock: K,
-    arena: &'a mut Arena<'a>,
-) -> !
-where
-    D: BlockDevice,
-    P: DrawTarget<Color = Rgb565>,
-    B: InputPin,
-    DL: DelayNs,
-    K: Clock,
-{
-    let (cache, tables, targets) = arena.model().parts();
-    let stream = match open_stream(&mut src, cache, tables) {
-        Ok(s) => s,
-        Err(e) => {
-            show_message(&mut panel, &e);
-            halt("no model", &mut delay);
+    /// [`run`] for a `.tg` or `.qs` model (see [`Board::run_pack`]).
+    #[inline(never)]
+    fn run_model<'a, D: BlockDevice>(
+        mut self,
+        mut src: ModelSource<'_, D>,
+        arena: &'a mut Arena<'a>,
+    ) -> ! {
+        let (cache, tables, targets) = arena.model().parts();
+        let stream = match open_stream(&mut src, cache, tables) {
+            Ok(s) => s,
+            Err(e) => self.refuse(&e),
+        };
+        match &stream {
+            ModelStream::Tg(s) => {
+                let h = *s.header();
+                log!(
+                    info,
+                    "model: a tri-grid, {} blocks of {} bytes, rho {}, depth {}",
+                    h.blocks,
+                    h.block_size(),
+                    h.rho,
+                    h.depth
+                );
+            }
+            ModelStream::Qs(s) => {
+                log!(
+                    info,
+                    "model: a QSplat file, {} bytes, {} trees",
+                    s.file_len(),
+                    s.trees().len()
+                );
+            }
         }
-    };
-    match &stream {
-        ModelStream::Tg(s) => {
-            let h = *s.header();
-            log!(
-                info,
-                "model: a tri-grid, {} blocks of {} bytes, rho {}, depth {}",
-                h.blocks,
-                h.block_size(),
-                h.rho,
-                h.depth
-            );
-        }
-        ModelStream::Qs(s) => {
-            log!(
-                info,
-                "model: a QSplat file, {} bytes, {} trees",
-                s.file_len(),
-                s.trees().len()
-            );
-        }
+        let mut viewer = Viewer::new(stream, src, self.panel, self.clock, targets);
+        forever(|held| viewer.step(held), &mut self.buttons, &mut self.delay)
     }
-    let mut viewer = Viewer::new(stream, src, panel, clock, targets);
-    forever(|held| viewer.step(held), &mut buttons, &mut delay)
+
+    /// Says on the panel why the file cannot be shown, and idles.
+    fn refuse(&mut self, why: &LoadError) -> ! {
+        show_message(&mut self.panel, why);
+        halt("no file to show", &mut self.delay);
+    }
 }
 
 /// Steps a viewer with the buttons held, forever, waiting 20 ms after each step that drew nothing.
