@@ -110,12 +110,12 @@ pub fn render_qs_stream<P: DepthTarget, L: Layer, const M: usize>(
 /// A frame of a scene pack streamed through its objects' block caches
 /// ([`SceneStream::render`](crate::stream::SceneStream::render), or with `pass` the next pass of a
 /// refined frame), through the same camera, shading table, clear and raster as
-/// [`render`](super::render()) draws the pack opened whole: with its shadows in the target's map
-/// (frames from what is resident; a refined frame's passes have none).
+/// [`render`](super::render()) draws the pack opened whole: with its shadows in the target's map,
+/// for a frame from what is resident and for each pass of a refined frame alike.
 ///
 /// # Errors
-/// [`RenderError::Scene`] when an object's frame cannot be set up, the table has fewer than the
-/// scene's slots, or a pass is asked for with shadows.
+/// [`RenderError::Scene`] when an object's frame cannot be set up or the table has fewer than the
+/// scene's slots.
 #[cfg(feature = "scene")]
 pub fn render_scene_stream<P: DepthTarget, L: Layer, const M: usize>(
     stream: &mut crate::stream::SceneStream<'_, '_, '_>,

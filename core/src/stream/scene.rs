@@ -8,9 +8,10 @@
 //!   one-pass shadows through the streamed walk's hooks; two-pass casts each object's resident
 //!   blocks first, then draws ([`TgStream::fill_with`]). A frame converges when no object missed
 //!   anything, in its cast or in its draw.
-//! - **A refined frame in passes** ([`SceneStream::render_pass`], unshadowed): the objects in the
-//!   scene's order, each drawn in its own passes over the shared depth buffer, one object finished
-//!   before the next begins, so that the passes add up to the resident frame.
+//! - **A refined frame in passes** ([`SceneStream::render_pass`], with the pack's shadows): the
+//!   frame's steps in order (two-pass: every cast, then every draw; one-pass: the draws in light
+//!   order), each in its own passes over the shared depth buffer and map, one finished before the
+//!   next begins, so that the passes add up to the resident frame.
 //! - [`SceneStream::serve`] reads for the objects that missed something first, then lets the
 //!   others prefetch, within one I/O budget; during a refined frame only the object being drawn
 //!   reads.
