@@ -10,7 +10,9 @@ use pocketsplat_core::bake::BakeOptions;
 use pocketsplat_core::camera::STANDARD_VIEWS;
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::stream::torture::{Chunked, Flaky};
-use pocketsplat_core::stream::{BlockEntry, ChunkSource, MemSource, SlotEntry, TgStream};
+use pocketsplat_core::stream::{
+    table_entries, BlockEntry, ChunkSource, MemSource, SlotEntry, TgStream,
+};
 use pocketsplat_core::tg::write::write_tg;
 use pocketsplat_core::tg::{TriGrid, Verify};
 use pocketsplat_sim::render::{render_tg_frame, FrameBuffers, Settings};
@@ -280,12 +282,16 @@ fn hostile_sources_give_errors_not_panics() {
     let mut src = MemSource::new(&bad);
     let err = TgStream::open(&mut src, &mut data, &mut slots, &mut blocks).unwrap_err();
     assert_eq!(err.to_string(), "header block fails its CRC check");
-    // Too little memory is said as such.
+    // Too little memory is said as such: a block table too small for the cache (its size
+    // follows the cache's, not the file's), a cache too small for the file.
     let mut src = MemSource::new(big);
-    let err = TgStream::open(&mut src, &mut data, &mut slots, &mut blocks).unwrap_err();
-    assert!(err.to_string().contains("block table holds 0"), "{err}");
-    let mut blocks = vec![BlockEntry::EMPTY; big.len() / 4096];
     let mut slots = vec![SlotEntry::EMPTY; 16];
+    let err = TgStream::open(&mut src, &mut data, &mut slots, &mut blocks).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "a block table of 0 entries is too small for this cache: it needs 128"
+    );
+    let mut blocks = vec![BlockEntry::EMPTY; table_entries(16, 0)];
     let mut tiny = vec![0u8; 3 * 4096];
     let err = TgStream::open(&mut src, &mut tiny, &mut slots, &mut blocks).unwrap_err();
     assert!(err.to_string().contains("needs 4 blocks"), "{err}");

@@ -27,7 +27,7 @@
 //! ([`pocketsplat_qemu::stream::draw_error_marker`]), and a refinement that cannot finish ends there.
 //!
 //! With neither model on the card, a scene pack, `SCENE.PAK`, is shown with its shadows by a
-//! [`PackViewer`] ([`scene`]): the QEMU firmware's streamed pack, in four bands and a 128² shadow
+//! [`PackViewer`] ([`scene`]): the QEMU firmware's streamed pack, in eight bands and a 128² shadow
 //! map, driven by the same buttons. A model's memory and a pack's are one [`Arena`] ([`memory`]),
 //! laid out for the file the card holds: the larger of the two, not both.
 #![no_std]
@@ -81,10 +81,6 @@ pub const SCENE_FILE: &str = pocketsplat_qemu::pack_stream::PACK_FILE;
 pub const TARGET_FRAME_US: u32 = 200_000;
 /// Cutoff of the first frame, pixels.
 pub const FIRST_CUTOFF_PX: f32 = 4.0;
-/// Blocks a streamed file may have (one [`BlockEntry`](pocketsplat_core::stream::BlockEntry) each,
-/// 16 bytes: 64 KB of RAM): 16 MB in 4 KB blocks, twice what the QEMU firmware allows, so that a
-/// depth-6 dragon fits too.
-pub const MAX_FILE_BLOCKS: usize = 4096;
 
 /// Logs with defmt when the `defmt` feature is on; otherwise nothing (the arguments are still
 /// evaluated by reference, so that nothing is unused).
@@ -238,8 +234,6 @@ pub enum LoadError {
     Read,
     /// The file is not a valid tri-grid.
     Invalid,
-    /// The file has more blocks than [`MAX_FILE_BLOCKS`] (its count).
-    TooLarge(u32),
     /// A `.tg` of a version that cannot be streamed (1 or 2): it must be migrated to version 3.
     OldVersion(u16),
     /// A scene pack whose objects need more of something than the viewer has at once.
@@ -269,10 +263,6 @@ impl core::fmt::Display for LoadError {
             LoadError::PackMemory { what, need, have } => write!(
                 f,
                 "{SCENE_FILE} needs {need}\n{what}; this viewer\nhas {have}."
-            ),
-            LoadError::TooLarge(n) => write!(
-                f,
-                "{MODEL_FILE}: {n} blocks,\nmore than the {MAX_FILE_BLOCKS}\nthis viewer holds."
             ),
         }
     }
@@ -343,17 +333,15 @@ impl<D: BlockDevice> ChunkSource for ModelSource<'_, D> {
     }
 }
 
-/// The block cache's tables, for files of up to [`MAX_FILE_BLOCKS`] blocks: one `static mut` on the
-/// board (its empty entries are not zero, so it sits in `.data`, apart from the zeroed cache blocks
-/// in `.bss`), a box on the host.
-pub type StreamTables = pocketsplat_qemu::stream::StreamTables<MAX_FILE_BLOCKS>;
+/// The block cache's tables (the same for a file of any size): in the board's arena, a box on the
+/// host.
+pub type StreamTables = pocketsplat_qemu::stream::StreamTables;
 
 /// Opens the model on `src` for streaming through the [`CACHE_BYTES`] of `cache`: a QSplat file by
 /// its magic (its fragment headers read), else a `.tg` (its header and CRC table read).
 ///
 /// # Errors
-/// [`LoadError`]: the header cannot be read, is neither a tri-grid's nor a QSplat file's, or
-/// declares too many blocks.
+/// [`LoadError`]: the header cannot be read, or is neither a tri-grid's nor a QSplat file's.
 pub fn open_stream<'a, C: ChunkSource + ?Sized>(
     src: &mut C,
     cache: &'a mut [u8; CACHE_BYTES],
@@ -377,7 +365,6 @@ pub fn open_stream<'a, C: ChunkSource + ?Sized>(
         log!(warn, "model: {}", shown!(e));
         match e {
             StreamError::Device(_) => LoadError::Read,
-            StreamError::TooManyBlocks { blocks, .. } => LoadError::TooLarge(blocks),
             StreamError::Format(TgError::NotStreamable { version }) => {
                 LoadError::OldVersion(version)
             }

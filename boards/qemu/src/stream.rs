@@ -28,7 +28,9 @@ use core::fmt;
 
 use pocketsplat_core::camera::{View, STANDARD_VIEWS};
 use pocketsplat_core::stream::torture::Flaky;
-use pocketsplat_core::stream::{BlockEntry, ChunkSource, SlotEntry, TgStream};
+use pocketsplat_core::stream::{
+    table_entries, BlockEntry, ChunkSource, SlotEntry, TgStream, QUEUE_CAPACITY,
+};
 
 use crate::{render_stream_pass, render_stream_view, Drawn, Phase, RenderError, Targets, WIDTH};
 
@@ -37,8 +39,9 @@ pub const CACHE_BYTES: usize = 64 * 1024;
 /// Cache slots: enough for the smallest block a `.tg` has (512 bytes); a file with larger blocks
 /// uses `CACHE_BYTES / block size` of them.
 pub const CACHE_SLOTS: usize = CACHE_BYTES / 512;
-/// Blocks a streamed file may have (one [`BlockEntry`] each, 16 bytes): 8 MB in 4 KB blocks.
-pub const MAX_FILE_BLOCKS: usize = 2048;
+/// Entries of the block table (16 bytes each): the blocks the stream deals with at once (resident,
+/// queued or waiting out a failure's backoff) for a full request queue, whatever the file's size.
+pub const TABLE_ENTRIES: usize = table_entries(CACHE_SLOTS, QUEUE_CAPACITY);
 /// Bytes read after each frame at most: 16 KB, half a 30 fps frame of a 1 MB/s SPI SD card.
 pub const IO_BUDGET_BYTES: u32 = 16 * 1024;
 /// LOD cutoff of every streamed frame, pixels (module docs: why 16).
@@ -109,25 +112,23 @@ impl<S: ChunkSource> ChunkSource for Pulled<S> {
 }
 
 /// The tables a [`TgStream`] of this sequence needs beside its cache blocks, in one piece (one
-/// `static mut` for cortex-m-rt's entry to hand over; a box on the host). `BLOCKS` is the largest
-/// file it streams, in blocks (the handheld holds more than this sequence's [`MAX_FILE_BLOCKS`]).
-pub struct StreamTables<const BLOCKS: usize = MAX_FILE_BLOCKS> {
+/// `static mut` for cortex-m-rt's entry to hand over; a box on the host): the same for a file of
+/// any size.
+pub struct StreamTables {
     /// Cache slots.
     pub slots: [SlotEntry; CACHE_SLOTS],
-    /// One entry per block of the file.
-    pub blocks: [BlockEntry; BLOCKS],
+    /// The block table.
+    pub blocks: [BlockEntry; TABLE_ENTRIES],
 }
 
-impl<const BLOCKS: usize> StreamTables<BLOCKS> {
+impl StreamTables {
     /// Tables before a file is opened, all zero bits (`.bss` on the device): the stream opened
     /// over them empties every entry it uses first.
     pub const EMPTY: Self = Self {
         slots: [SlotEntry::UNSET; CACHE_SLOTS],
-        blocks: [BlockEntry::UNSET; BLOCKS],
+        blocks: [BlockEntry::UNSET; TABLE_ENTRIES],
     };
-}
 
-impl StreamTables {
     /// These tables and the cache blocks `data`, as [`stream_frames`] takes them.
     pub fn with_cache<'a>(&'a mut self, data: &'a mut [u8; CACHE_BYTES]) -> StreamMemory<'a> {
         StreamMemory {
@@ -144,8 +145,8 @@ pub struct StreamMemory<'a> {
     pub data: &'a mut [u8; CACHE_BYTES],
     /// Cache slots.
     pub slots: &'a mut [SlotEntry; CACHE_SLOTS],
-    /// One entry per block of the file.
-    pub blocks: &'a mut [BlockEntry; MAX_FILE_BLOCKS],
+    /// The block table.
+    pub blocks: &'a mut [BlockEntry; TABLE_ENTRIES],
 }
 
 impl StreamMemory<'_> {
@@ -580,9 +581,9 @@ pub fn stream_frames<C: ChunkSource + ?Sized>(
     ))
 }
 
-/// Blocks of a streamed `.qs` file in this sequence: 2 KB, so that the dragon (2.8 MB) fits
-/// [`MAX_FILE_BLOCKS`] entries and its deepest path
-/// ([`QsStream::cache_need`](pocketsplat_core::stream::QsStream::cache_need)) the 64 KB cache.
+/// Blocks of a streamed `.qs` file in this sequence: 2 KB (fewer reads than an SD card's 512-byte
+/// sectors), so that its deepest path
+/// ([`QsStream::cache_need`](pocketsplat_core::stream::QsStream::cache_need)) fits the 64 KB cache.
 #[cfg(feature = "qsplat")]
 pub const QS_BLOCK_LOG2: u8 = 11;
 

@@ -36,6 +36,7 @@
 #![deny(clippy::float_arithmetic)]
 
 mod cache;
+mod crcs;
 mod need;
 mod nodes;
 mod open;
@@ -54,7 +55,7 @@ pub mod torture;
 #[cfg(feature = "sdmmc")]
 pub mod sdmmc;
 
-pub use cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
+pub use cache::{table_entries, BlockCache, BlockEntry, SlotEntry, MIN_QUEUE, MIN_SLOTS};
 pub use open::{read_tg_header, OPEN_ATTEMPTS};
 pub use priority::{size_class, stream_priority, QUEUE_CAPACITY};
 #[cfg(feature = "qsplat")]
@@ -279,12 +280,13 @@ pub enum StreamError<E> {
         /// Heads a stream keeps.
         capacity: u32,
     },
-    /// The per-block table given has fewer entries than the file has blocks.
-    TooManyBlocks {
-        /// Blocks in the file.
-        blocks: u32,
+    /// The block table given has fewer entries than the cache needs
+    /// ([`table_entries`] of its slots and [`MIN_QUEUE`]).
+    TableTooSmall {
         /// Entries given.
-        capacity: u32,
+        entries: u32,
+        /// Entries the cache needs.
+        needed: u32,
     },
     /// The cache memory holds fewer blocks of this file than a pass needs at once (at least
     /// [`cache::MIN_SLOTS`]; [`TgStream::cache_need`]): a stream through it would never converge.
@@ -312,9 +314,9 @@ impl<E: core::fmt::Debug> core::fmt::Display for StreamError<E> {
                 f,
                 "the file has more than {capacity} tree fragments, more than a stream keeps"
             ),
-            StreamError::TooManyBlocks { blocks, capacity } => write!(
+            StreamError::TableTooSmall { entries, needed } => write!(
                 f,
-                "the file has {blocks} blocks but the block table holds {capacity}"
+                "a block table of {entries} entries is too small for this cache: it needs {needed}"
             ),
             StreamError::CacheTooSmall {
                 block_size,
@@ -331,3 +333,20 @@ impl<E: core::fmt::Debug> core::fmt::Display for StreamError<E> {
 }
 
 impl<E: core::fmt::Debug> core::error::Error for StreamError<E> {}
+
+impl<E> StreamError<E> {
+    /// What a cache laid out in too little memory reports: `slots` blocks of `block_size` bytes
+    /// fit.
+    pub(crate) fn too_small(e: cache::TooSmall, block_size: usize, slots: u32) -> Self {
+        match e {
+            cache::TooSmall::Cache => StreamError::CacheTooSmall {
+                block_size: block_size as u32,
+                slots,
+                needed: MIN_SLOTS as u32,
+            },
+            cache::TooSmall::Table { entries, needed } => {
+                StreamError::TableTooSmall { entries, needed }
+            }
+        }
+    }
+}

@@ -6,7 +6,7 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BRICK_BAD, BRICK_OK, NOT_QUEUED};
+use super::cache::{BlockCache, BRICK_BAD, BRICK_OK};
 use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
 use super::serve::{push, Phase, Request};
 use crate::tg::brick::{check_brick, Array, Brick, BrickEntry};
@@ -246,11 +246,7 @@ impl StreamNodes<'_, '_, '_> {
         each_block(self.cache.log2, ranges, |b| {
             let add = match self.cache.used(b) {
                 Some(u) => u != stamp && self.unpinned(b),
-                None => self
-                    .cache
-                    .blocks
-                    .get(b)
-                    .is_some_and(|e| e.queued == NOT_QUEUED),
+                None => b < self.cache.file_blocks() && !self.cache.queued(b),
             };
             n += u32::from(add);
         });
@@ -259,10 +255,7 @@ impl StreamNodes<'_, '_, '_> {
 
     /// Whether block `b` may be evicted (its class is not pinned).
     fn unpinned(&self, b: usize) -> bool {
-        self.cache
-            .blocks
-            .get(b)
-            .is_some_and(|e| i16::from(e.class) > self.cache.pinned)
+        b < self.cache.file_blocks() && i16::from(self.cache.class(b)) > self.cache.pinned
     }
 
     /// The pass stops drawing at cell `index` of `level`, whose children are absent: the next pass
@@ -488,7 +481,7 @@ impl StreamNodes<'_, '_, '_> {
             Some(u128::from_le_bytes(w))
         };
         let ok = check_brick(&h, &dirs, b, &mut read).is_ok();
-        if let Some(e) = self.cache.blocks.get_mut(first) {
+        if let Some(e) = self.cache.entry_mut(first) {
             e.flags |= if ok { BRICK_OK } else { BRICK_BAD };
         }
         if !ok {
@@ -585,7 +578,8 @@ impl NodeData for StreamNodes<'_, '_, '_> {
                 Entered::Missing(block) => r[3] = ((block as u64) << self.cache.log2, 1),
                 Entered::Brick(b, table) => {
                     r[3] = ((table as u64) << self.cache.log2, 1);
-                    let flags = self.cache.blocks[(b.start >> self.cache.log2) as usize].flags;
+                    let first = (b.start >> self.cache.log2) as usize;
+                    let flags = self.cache.entry(first).map_or(0, |e| e.flags);
                     if flags & BRICK_BAD != 0 {
                         *self.inconsistent += 1;
                         return false;

@@ -3,6 +3,7 @@
 //! slots and checked as the resident reader checks them (FORMAT.md "Validation").
 
 use super::cache::BlockCache;
+use super::crcs::CrcWindow;
 use super::{ChunkSource, StreamError};
 use crate::crc::crc32;
 use crate::tg::brick::{check_head, check_table, BrickSpans};
@@ -104,6 +105,7 @@ pub(crate) struct OpenReads {
 /// pointers), which a handful of slots serves.
 struct SlotReader<'c, 'a, C: ChunkSource + ?Sized> {
     cache: &'c mut BlockCache<'a>,
+    crcs: &'c mut CrcWindow,
     src: &'c mut C,
     tick: u32,
     reads: OpenReads,
@@ -129,7 +131,7 @@ impl<C: ChunkSource + ?Sized> SlotReader<'_, '_, C> {
     }
 
     fn load(&mut self, b: usize) -> Option<()> {
-        let want = self.cache.blocks.get(b)?.crc;
+        let b32 = u32::try_from(b).ok()?;
         // The least recently used slot (free ones first: their `used` is 0).
         let s = (0..self.cache.capacity()).min_by_key(|&s| self.cache.slots[s].used)?;
         self.cache.evict(s);
@@ -143,15 +145,15 @@ impl<C: ChunkSource + ?Sized> SlotReader<'_, '_, C> {
                     self.reads.read_errors += 1;
                     self.failed.get_or_insert(StreamError::Device(e));
                 }
-                Ok(()) if crc32(buf) != want => {
+                Ok(()) if self.crcs.crc(self.src, b32) != Some(crc32(buf)) => {
+                    self.crcs.forget();
                     self.reads.crc_errors += 1;
                     self.failed
                         .get_or_insert(StreamError::Format(TgError::BlockCrc(b as u32)));
                 }
                 Ok(()) => {
                     self.failed = None;
-                    self.cache.install(s, b, 0);
-                    return Some(());
+                    return self.cache.install(s, b, 0).then_some(());
                 }
             }
         }
@@ -160,8 +162,8 @@ impl<C: ChunkSource + ?Sized> SlotReader<'_, '_, C> {
 }
 
 /// Checks the head of a version 3 file (every level in the level directory, as the resident reader
-/// does) and its brick table, reading them through `cache` (whose blocks' CRCs are loaded). The
-/// blocks read stay in the cache, marked unused.
+/// does) and its brick table, reading them through `cache` (each block checked against its CRC
+/// from `crcs`). The blocks read stay in the cache, marked unused.
 ///
 /// # Errors
 /// [`StreamError::Format`] naming the fault, or, when a block could not be read intact, the
@@ -170,10 +172,12 @@ pub(crate) fn check_head_and_table<C: ChunkSource + ?Sized>(
     h: &Header,
     levels: &[LevelDir; MAX_LEVELS],
     cache: &mut BlockCache<'_>,
+    crcs: &mut CrcWindow,
     src: &mut C,
 ) -> Result<OpenReads, StreamError<C::Error>> {
     let mut r = SlotReader {
         cache,
+        crcs,
         src,
         tick: 0,
         reads: OpenReads::default(),

@@ -23,7 +23,7 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BlockEntry, Evict, SlotEntry, MIN_SLOTS};
+use super::cache::{BlockCache, BlockEntry, Evict, SlotEntry, MIN_SLOTS, NO_BLOCK};
 use super::open::OPEN_ATTEMPTS;
 use super::priority::{stream_priority, QUEUE_CAPACITY, ROOT_PRIORITY};
 use super::serve::{
@@ -189,8 +189,9 @@ fn fragments<C: ChunkSource + ?Sized>(
 impl<'a> QsStream<'a> {
     /// Opens a `.qs` file on `src`: reads its fragment headers (and the start of a comment, for
     /// pocketsplat's bounds), and sets up a cache of `2^block_log2`-byte blocks in `data` (at most
-    /// `slots.len()` of them) with one entry of `blocks` per block of the file. Memory is the
-    /// caller's: statics on a device.
+    /// `slots.len()` of them) with a block table of `table` ([`table_entries`](super::table_entries)
+    /// of the slots for a full request queue). Memory is the caller's: statics on a device; none of
+    /// it grows with the file.
     ///
     /// # Errors
     /// A [`StreamError`]: the medium does not know the file's length, a header could not be read
@@ -201,7 +202,7 @@ impl<'a> QsStream<'a> {
         block_log2: u8,
         data: &'a mut [u8],
         slots: &'a mut [SlotEntry],
-        blocks: &'a mut [BlockEntry],
+        table: &'a mut [BlockEntry],
     ) -> Result<Self, StreamError<C::Error>> {
         let file_len = src.byte_len().ok_or(StreamError::UnknownLength)?;
         if file_len < COMMENT_HEADER_BYTES as u64 {
@@ -289,23 +290,11 @@ impl<'a> QsStream<'a> {
         }
         let bs = 1u64 << block_log2;
         let nblocks = file_len.div_ceil(bs);
-        if (blocks.len() as u64) < nblocks {
-            return Err(StreamError::TooManyBlocks {
-                blocks: u32::try_from(nblocks).unwrap_or(u32::MAX),
-                capacity: blocks.len() as u32,
-            });
-        }
         let slots_avail = (data.len() >> block_log2).min(slots.len()) as u32;
-        let cache = BlockCache::new(block_log2, data, slots, &mut blocks[..nblocks as usize])
-            .ok_or(StreamError::CacheTooSmall {
-                block_size: bs as u32,
-                slots: slots_avail,
-                needed: MIN_SLOTS as u32,
-            })?;
-        for e in cache.blocks.iter_mut() {
-            e.class = UNSEEN;
-        }
-        let mut cache = cache;
+        let mut cache = BlockCache::new(block_log2, data, slots, table, nblocks as usize)
+            .map_err(|e| StreamError::too_small(e, bs as usize, slots_avail))?;
+        // No group has been read from any block yet: each is of the finest class until one is.
+        cache.set_classes(&[0; crate::tg::MAX_LEVELS], UNSEEN);
         // Without pocketsplat's comment, the resident reader's box: the spheres of the top levels
         // (a breadth-first file's first bytes), read now through the cache.
         let bounds = match bounds {
@@ -439,7 +428,7 @@ impl<'a> QsStream<'a> {
             .cache
             .slots
             .iter()
-            .filter(|e| e.used == self.frame && self.cache.blocks.get(e.block as usize).is_some())
+            .filter(|e| e.used == self.frame && e.block != NO_BLOCK)
             .count() as u32;
         used + self.queue.len() as u32
     }
@@ -597,7 +586,7 @@ impl QsStream<'_> {
             .cache
             .slots
             .iter()
-            .filter(|s| self.cache.blocks.get(s.block as usize).is_none())
+            .filter(|s| s.block == NO_BLOCK)
             .count();
         let (tree, free_at) = self.frontier.unwrap_or((0, [0; LEVELS]));
         let passed = |block: u32, e: &BlockEntry| -> bool {
@@ -617,7 +606,7 @@ impl QsStream<'_> {
         for _ in free..wanted {
             let mut best: Option<(usize, (bool, bool, u32))> = None;
             for (s, slot) in self.cache.slots.iter().enumerate() {
-                let Some(e) = self.cache.blocks.get(slot.block as usize) else {
+                let Some(e) = self.cache.entry(slot.block as usize) else {
                     continue;
                 };
                 if slot.used == self.frame {
@@ -635,12 +624,9 @@ impl QsStream<'_> {
             let Some((s, _)) = best else {
                 break;
             };
-            let b = self.cache.slots[s].block as usize;
+            // (What is noted of the block goes with it.)
             if self.cache.evict(s) {
                 self.counters.evictions += 1;
-            }
-            if let Some(e) = self.cache.blocks.get_mut(b) {
-                e.flags &= !DRAWN;
             }
         }
     }
@@ -798,7 +784,7 @@ impl StreamGroups<'_, '_, '_> {
             self.pass.kept += 1;
         }
         let drawing = self.pass.phase == Phase::Draw;
-        if let Some(e) = self.cache.blocks.get_mut(b) {
+        if let Some(e) = self.cache.entry_mut(b) {
             e.class = e.class.min(level);
             // The deepest level read from the block, plus one (0: none yet), and whether a pass
             // drew from it.
@@ -814,10 +800,14 @@ impl StreamGroups<'_, '_, '_> {
         None
     }
 
-    /// Queues block `b`; returns whether it was newly queued.
-    fn queue(&mut self, b: u64, priority: u32) -> bool {
+    /// Queues block `b`, which a group of `level` lies in; returns whether it was newly queued.
+    fn queue(&mut self, b: u64, priority: u32, level: u8) -> bool {
         let b = usize::try_from(b).unwrap_or(usize::MAX);
-        push(self.cache, self.queue, self.dropped, b, priority)
+        let newly = push(self.cache, self.queue, self.dropped, b, priority);
+        if let Some(e) = self.cache.entry_mut(b) {
+            e.class = e.class.min(level);
+        }
+        newly
     }
 
     /// The pass stops drawing at the node at `level` on the current path, whose group is absent:
@@ -947,7 +937,7 @@ impl QsNodes for StreamGroups<'_, '_, '_> {
             Phase::Progressive => {
                 let p = parent.map_or(ROOT_PRIORITY, |s| stream_priority(s.size_q8, s.y_q8));
                 for b in b0..=b1 {
-                    self.queue(b, p);
+                    self.queue(b, p, level);
                 }
             }
             Phase::Draw => {
@@ -955,7 +945,7 @@ impl QsNodes for StreamGroups<'_, '_, '_> {
                 for b in b0..=b1 {
                     // A group across two blocks, one of them resident: the next pass needs both,
                     // so the resident one is kept too (else reading the other could evict it).
-                    if !self.touch(b as usize, level) && self.queue(b, ROOT_PRIORITY) {
+                    if !self.touch(b as usize, level) && self.queue(b, ROOT_PRIORITY, level) {
                         self.pass.kept += 1;
                     }
                 }
@@ -965,7 +955,7 @@ impl QsNodes for StreamGroups<'_, '_, '_> {
                     // A pass reads in file order (what an SD card serves best).
                     let p =
                         u32::MAX - 1 - u32::try_from(b).unwrap_or(u32::MAX - 2).min(u32::MAX - 2);
-                    if self.queue(b, p) {
+                    if self.queue(b, p, level) {
                         self.pass.kept += 1;
                     }
                 }
@@ -1041,11 +1031,11 @@ mod tests {
     }
 
     impl Mem {
-        fn new(slots: usize, log2: u8, file: usize) -> Self {
+        fn new(slots: usize, log2: u8, _file: usize) -> Self {
             Self {
                 data: std::vec![0; slots << log2],
                 slots: std::vec![SlotEntry::EMPTY; slots],
-                blocks: std::vec![BlockEntry::EMPTY; file.div_ceil(1 << log2)],
+                blocks: std::vec![BlockEntry::EMPTY; crate::stream::table_entries(slots, QUEUE_CAPACITY)],
             }
         }
     }

@@ -6,7 +6,7 @@
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BlockEntry, Evict, NOT_QUEUED, NO_SLOT};
+use super::cache::{BlockCache, Evict, NO_SLOT};
 use super::priority::{QUEUE_CAPACITY, ROOT_PRIORITY};
 use super::ChunkSource;
 
@@ -118,37 +118,47 @@ pub(crate) fn push(
     b: usize,
     priority: u32,
 ) -> bool {
-    let Some(e) = cache.blocks.get(b) else {
+    if b >= cache.file_blocks() {
         *dropped += 1; // outside the file: a damaged directory or pointer; never converges
         return false;
-    };
-    if e.slot != NO_SLOT {
-        return false;
     }
-    if e.queued != NOT_QUEUED {
-        let r = &mut queue[usize::from(e.queued)];
-        r.priority = r.priority.max(priority);
-        return false;
+    if let Some(e) = cache.entry(b) {
+        if e.slot != NO_SLOT {
+            return false;
+        }
+        if let Some(r) = queue.get_mut(usize::from(e.queued)) {
+            r.priority = r.priority.max(priority);
+            return false;
+        }
     }
     let req = Request {
         priority,
         block: b as u32,
     };
-    if queue.push(req).is_ok() {
-        cache.blocks[b].queued = (queue.len() - 1) as u16;
-        return true;
+    if queue.len() < cache.queue_room && queue.push(req).is_ok() {
+        if cache.set_queued(b, queue.len() - 1) {
+            return true;
+        }
+        queue.pop();
     }
-    let (i, low) = queue
+    let Some((i, low)) = queue
         .iter()
         .enumerate()
         .min_by_key(|(_, r)| r.priority)
         .map(|(i, r)| (i, *r))
-        .expect("a full queue is not empty");
+    else {
+        *dropped += 1;
+        return false;
+    };
     *dropped += 1;
     if priority > low.priority {
-        cache.blocks[low.block as usize].queued = NOT_QUEUED;
-        queue[i] = req;
-        cache.blocks[b].queued = i as u16;
+        cache.unqueue(low.block as usize);
+        if cache.set_queued(b, i) {
+            queue[i] = req;
+        } else {
+            // No room in the table for the new one: the old one keeps its place.
+            cache.set_queued(low.block as usize, i);
+        }
     }
     false
 }
@@ -156,9 +166,7 @@ pub(crate) fn push(
 /// Empties the queue (a new frame asks afresh, §3.4).
 pub(crate) fn clear_queue(cache: &mut BlockCache<'_>, queue: &mut Vec<Request, QUEUE_CAPACITY>) {
     for r in queue.iter() {
-        if let Some(e) = cache.blocks.get_mut(r.block as usize) {
-            e.queued = NOT_QUEUED;
-        }
+        cache.unqueue(r.block as usize);
     }
     queue.clear();
 }
@@ -176,7 +184,7 @@ impl Feed<'_, '_> {
         passing: bool,
         missing: u32,
         mut prefetch: impl FnMut(&BlockCache<'_>, u32) -> Option<usize>,
-        mut check: impl FnMut(usize, &BlockEntry, &[u8]) -> Verdict,
+        mut check: impl FnMut(usize, &[u8], &mut C) -> Verdict,
     ) -> ServeReport {
         let bs = self.block_size;
         let mut left = (budget_bytes as usize).max(bs);
@@ -234,10 +242,10 @@ impl Feed<'_, '_> {
         b: usize,
         mode: Evict,
         report: &mut ServeReport,
-        check: &mut impl FnMut(usize, &BlockEntry, &[u8]) -> Verdict,
+        check: &mut impl FnMut(usize, &[u8], &mut C) -> Verdict,
     ) -> Option<()> {
         let bs = self.block_size;
-        let class = self.cache.blocks[b].class;
+        let class = self.cache.class(b);
         let prefetch = mode == Evict::Prefetch;
         let s = self.cache.victim(class, self.frame, mode)?;
         if self.cache.evict(s) {
@@ -249,7 +257,6 @@ impl Feed<'_, '_> {
         self.counters.reads += 1;
         self.counters.bytes_read += bs as u64;
         self.counters.prefetched += u32::from(prefetch);
-        let entry = self.cache.blocks[b];
         let at = (b as u64) * bs as u64;
         let n = self.file_len.saturating_sub(at).min(bs as u64) as usize;
         let buf = &mut self.cache.slot_bytes(s)[..n];
@@ -258,7 +265,7 @@ impl Feed<'_, '_> {
                 self.counters.read_errors += 1;
                 false
             }
-            Ok(()) => match check(b, &entry, buf) {
+            Ok(()) => match check(b, buf, src) {
                 Verdict::Good => true,
                 Verdict::Crc => {
                     self.counters.crc_errors += 1;
@@ -271,14 +278,9 @@ impl Feed<'_, '_> {
                 }
             },
         };
-        if ok {
-            self.cache.install(s, b, self.frame);
-        } else {
+        if !(ok && self.cache.install(s, b, self.frame)) {
             report.failed += 1;
-            let e = &mut self.cache.blocks[b];
-            e.fails = e.fails.saturating_add(1);
-            let backoff = (1u32 << u32::from(e.fails).min(6)).min(MAX_BACKOFF);
-            e.retry_at = self.frame.wrapping_add(backoff);
+            self.cache.fail(b, self.frame, MAX_BACKOFF);
         }
         Some(())
     }
@@ -287,31 +289,25 @@ impl Feed<'_, '_> {
     fn pop_best(&mut self) -> Option<(usize, u32)> {
         let mut best: Option<(usize, u32)> = None;
         for (i, r) in self.queue.iter().enumerate() {
-            let e = &self.cache.blocks[r.block as usize];
-            if e.slot == NO_SLOT && ready(e, self.frame) && best.is_none_or(|(_, p)| r.priority > p)
-            {
+            let readable = self
+                .cache
+                .entry(r.block as usize)
+                .is_some_and(|e| e.slot == NO_SLOT && e.ready(self.frame));
+            if readable && best.is_none_or(|(_, p)| r.priority > p) {
                 best = Some((i, r.priority));
             }
         }
         let (i, _) = best?;
         let r = self.queue.swap_remove(i);
-        self.cache.blocks[r.block as usize].queued = NOT_QUEUED;
+        self.cache.unqueue(r.block as usize);
         if let Some(moved) = self.queue.get(i) {
-            self.cache.blocks[moved.block as usize].queued = i as u16;
+            self.cache.set_queued(moved.block as usize, i);
         }
         Some((r.block as usize, r.priority))
     }
 }
 
-/// Whether a block may be read in frame `frame` (not waiting out a backoff).
-pub(crate) fn ready(e: &BlockEntry, frame: u32) -> bool {
-    e.retry_at == 0 || frame >= e.retry_at
-}
-
 /// The first absent block from `first` on, in file order, that may be read in frame `frame`.
 pub(crate) fn first_absent(cache: &BlockCache<'_>, first: usize, frame: u32) -> Option<usize> {
-    (first..cache.blocks.len()).find(|&b| {
-        let e = &cache.blocks[b];
-        e.slot == NO_SLOT && ready(e, frame)
-    })
+    (first..cache.file_blocks()).find(|&b| !cache.contains(b) && cache.ready(b, frame))
 }

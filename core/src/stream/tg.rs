@@ -5,7 +5,8 @@ use core::cell::Cell;
 
 use heapless::Vec;
 
-use super::cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS};
+use super::cache::{BlockCache, BlockEntry, SlotEntry, MIN_SLOTS, NO_BLOCK};
+use super::crcs::CrcWindow;
 use super::need::{LevelEnds, Need};
 use super::nodes::{Bricks, Entered, Level, PassState, Refine, StreamNodes};
 use super::open::{check_head_and_table, read_tg_header, OPEN_ATTEMPTS};
@@ -45,6 +46,8 @@ pub struct TgStream<'a> {
     /// Samples in the file: the most nodes a frame may visit (FORMAT.md: one visit per sample).
     samples: u64,
     cache: BlockCache<'a>,
+    /// The CRCs of the blocks being read.
+    crcs: CrcWindow,
     queue: Vec<Request, QUEUE_CAPACITY>,
     /// Blocks the last frame wanted (queued or dropped) plus the descents it refused as
     /// inconsistent: 0 means it was drawn at full detail.
@@ -86,9 +89,10 @@ impl Walk for StreamWalk<'_, '_> {
 }
 
 impl<'a> TgStream<'a> {
-    /// Opens a `.tg` file on `src`: reads its header and CRC table (retrying each read), and sets up
-    /// a cache of `data.len() / block_size` blocks (at most `slots.len()`) and a table of `blocks`
-    /// (one entry per block of the file). Memory is the caller's: statics on a device.
+    /// Opens a `.tg` file on `src`: reads its header and checks its CRC table (retrying each
+    /// read), and sets up a cache of `data.len() / block_size` blocks (at most `slots.len()`) with
+    /// a block table of `table` ([`table_entries`](super::table_entries) of the slots and the
+    /// request queue wanted). Memory is the caller's: statics on a device; none of it grows with the file.
     ///
     /// # Errors
     /// A [`StreamError`]: the header or CRC table could not be read or is invalid, or the memory
@@ -97,25 +101,14 @@ impl<'a> TgStream<'a> {
         src: &mut C,
         data: &'a mut [u8],
         slots: &'a mut [SlotEntry],
-        blocks: &'a mut [BlockEntry],
+        table: &'a mut [BlockEntry],
     ) -> Result<Self, StreamError<C::Error>> {
         let (header, dirs, header_fails) = read_tg_header(src, data)?;
         let nblocks = header.blocks as usize;
         let bs = header.block_size();
-        if blocks.len() < nblocks {
-            return Err(StreamError::TooManyBlocks {
-                blocks: header.blocks,
-                capacity: blocks.len() as u32,
-            });
-        }
         let slots_avail = (data.len() / bs).min(slots.len()) as u32;
-        let cache = BlockCache::new(header.block_log2, data, slots, &mut blocks[..nblocks]).ok_or(
-            StreamError::CacheTooSmall {
-                block_size: bs as u32,
-                slots: slots_avail,
-                needed: MIN_SLOTS as u32,
-            },
-        )?;
+        let cache = BlockCache::new(header.block_log2, data, slots, table, nblocks)
+            .map_err(|e| StreamError::too_small(e, bs, slots_avail))?;
         let levels = dirs.map(|d| Level::of(&d));
         let mut s = TgStream {
             header,
@@ -124,6 +117,7 @@ impl<'a> TgStream<'a> {
             samples: dirs.iter().map(|d| u64::from(d.count)).sum(),
             inconsistent: 0,
             cache,
+            crcs: CrcWindow::new(bs as u64, header.blocks),
             queue: Vec::new(),
             missing: 1,
             frame: 0,
@@ -135,14 +129,16 @@ impl<'a> TgStream<'a> {
         };
         s.counters.reads = header_fails + 1;
         s.counters.bytes_read = (u64::from(header_fails) + 1) * bs as u64;
-        s.load_crc_table(src)?;
+        s.check_crc_table(src)?;
         // The head and the brick table, checked whole before the first frame (the bricks are
         // checked one by one as the walk first enters them).
-        let reads = check_head_and_table(&header, &dirs, &mut s.cache, src)?;
+        let reads = check_head_and_table(&header, &dirs, &mut s.cache, &mut s.crcs, src)?;
         s.counters.reads += reads.reads;
         s.counters.bytes_read += u64::from(reads.reads) * bs as u64;
         s.counters.read_errors += reads.read_errors;
         s.counters.crc_errors += reads.crc_errors;
+        s.counters.reads += s.crcs.reads;
+        s.counters.bytes_read += s.crcs.bytes_read;
         // A cache that cannot hold what one pass needs would never converge: refused here, with
         // the size this file needs (issue 33).
         let level_end = s.level_ends(&dirs);
@@ -166,9 +162,9 @@ impl<'a> TgStream<'a> {
     }
 
     /// Reads each CRC-table block into slot 1 (as scratch; block 0 is still in slot 0, where
-    /// [`read_tg_header`] read it), checks it against the header's list and copies the CRCs into the
-    /// block table, so that the table itself never occupies the cache.
-    fn load_crc_table<C: ChunkSource + ?Sized>(
+    /// [`read_tg_header`] read it) and checks it against the header's list. The CRCs are not kept:
+    /// each block's is read again from the table when the block arrives ([`CrcWindow`]).
+    fn check_crc_table<C: ChunkSource + ?Sized>(
         &mut self,
         src: &mut C,
     ) -> Result<(), StreamError<C::Error>> {
@@ -176,7 +172,6 @@ impl<'a> TgStream<'a> {
         let bs = h.block_size();
         // parse_header checked that the list lies inside block 0.
         let list_at = DIRECTORY_OFFSET + DIRECTORY_ENTRY * h.levels();
-        let per_table = bs / 4;
         for t in 1..=h.crc_table_blocks as usize {
             let at = list_at + 4 * (t - 1);
             let w = &self.cache.data[at..at + 4];
@@ -204,14 +199,6 @@ impl<'a> TgStream<'a> {
             }
             if !ok {
                 return Err(last);
-            }
-            let first = (t - 1) * per_table;
-            for k in 0..per_table {
-                let w = &self.cache.data[bs + 4 * k..bs + 4 * k + 4];
-                let crc = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
-                if let Some(e) = self.cache.blocks.get_mut(first + k) {
-                    e.crc = crc;
-                }
             }
         }
         Ok(())
@@ -254,18 +241,13 @@ impl<'a> TgStream<'a> {
         level_end
     }
 
-    /// Gives each data block its class (the coarsest level with data in it), and pins the levels
+    /// Gives each block its class (the coarsest level with data in it), and pins the levels
     /// `0..=pinned` (their `pinned_blocks` blocks are never evicted; [`Need::pinning`] chose them).
     fn classify(&mut self, level_end: &LevelEnds, pinned: i16, pinned_blocks: u32) {
-        let h = self.header;
-        let log2 = h.block_log2;
-        let first_data = h.crc_table_blocks as usize + 1;
-        for (b, e) in self.cache.blocks.iter_mut().enumerate().skip(first_data) {
-            let start = (b as u64) << log2;
-            e.class = (0..h.levels())
-                .find(|&l| level_end[l] > start)
-                .unwrap_or(usize::from(h.depth)) as u8;
-        }
+        let mut ends = [0u64; MAX_LEVELS];
+        let levels = self.header.levels();
+        ends[..levels].copy_from_slice(&level_end[..levels]);
+        self.cache.set_classes(&ends, self.header.depth);
         self.cache.pinned = pinned;
         self.pinned_blocks = pinned_blocks;
     }
@@ -462,9 +444,9 @@ impl<'a> TgStream<'a> {
             .slots
             .iter()
             .filter(|e| {
-                self.cache.blocks.get(e.block as usize).is_some_and(|b| {
-                    e.used == self.frame || i16::from(b.class) <= self.cache.pinned
-                })
+                e.block != NO_BLOCK
+                    && (e.used == self.frame
+                        || i16::from(self.cache.class(e.block as usize)) <= self.cache.pinned)
             })
             .count() as u32;
         kept + self.queue.len() as u32
@@ -591,6 +573,8 @@ impl<'a> TgStream<'a> {
     ) -> ServeReport {
         let (header, dirs) = (self.header, self.dirs);
         let first = header.crc_table_blocks as usize + 1;
+        let crcs = &mut self.crcs;
+        let (reads, bytes) = (crcs.reads, crcs.bytes_read);
         let mut feed = Feed {
             cache: &mut self.cache,
             queue: &mut self.queue,
@@ -599,15 +583,16 @@ impl<'a> TgStream<'a> {
             block_size: header.block_size(),
             file_len: u64::from(header.blocks) << header.block_log2,
         };
-        feed.serve(
+        let report = feed.serve(
             src,
             budget_bytes,
             self.passing,
             self.missing,
             // The data blocks in file order: coarse levels first.
             |cache, frame| first_absent(cache, first, frame),
-            |b, entry, buf| {
-                if crc32(buf) != entry.crc {
+            |b, buf, src| {
+                if crcs.crc(src, b as u32) != Some(crc32(buf)) {
+                    crcs.forget();
                     Verdict::Crc
                 } else if check_block(&header, &dirs, b as u32, buf).is_err() {
                     Verdict::Structure
@@ -615,6 +600,9 @@ impl<'a> TgStream<'a> {
                     Verdict::Good
                 }
             },
-        )
+        );
+        self.counters.reads += self.crcs.reads - reads;
+        self.counters.bytes_read += self.crcs.bytes_read - bytes;
+        report
     }
 }

@@ -102,7 +102,7 @@ pub fn stream_need<C: ChunkSource>(
     dirs: &[LevelDir; MAX_LEVELS],
     src: &mut C,
 ) -> Option<StreamInfo> {
-    use pocketsplat_core::stream::{BlockEntry, SlotEntry, StreamError, TgStream};
+    use pocketsplat_core::stream::{table_entries, BlockEntry, SlotEntry, StreamError, TgStream};
     use pocketsplat_core::tg::brick::check_table;
     let h = *h;
     if h.version < pocketsplat_core::tg::VERSION_BRICKS {
@@ -126,7 +126,7 @@ pub fn stream_need<C: ChunkSource>(
         filled(0u8, slots * bs).ok()?,
         filled(SlotEntry::EMPTY, slots).ok()?,
     );
-    let mut blocks = filled(BlockEntry::EMPTY, h.blocks as usize).ok()?;
+    let mut blocks = filled(BlockEntry::EMPTY, table_entries(slots, 0)).ok()?;
     let needed = match TgStream::open(src, &mut data, &mut slot_mem, &mut blocks) {
         Ok(s) => s.cache_need(),
         Err(StreamError::CacheTooSmall { needed, .. }) => needed,

@@ -10,8 +10,8 @@ use pocketsplat_core::render::{render_qs_stream, render_stream, StreamPass};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::Stats;
 use pocketsplat_core::stream::{
-    read_tg_header, BlockEntry, ChunkSource, QsStream, ServeReport, SlotEntry, StreamCounters,
-    StreamError, TgStream,
+    read_tg_header, table_entries, BlockEntry, ChunkSource, QsStream, ServeReport, SlotEntry,
+    StreamCounters, StreamError, TgStream, QUEUE_CAPACITY,
 };
 use pocketsplat_core::tg::Header;
 
@@ -58,7 +58,8 @@ fn too_small(cache_bytes: usize, block_size: usize, needed: u32) -> anyhow::Erro
 
 impl OwnedStream {
     /// Reads the header of the `.tg` file on `src` and allocates a cache of `cache_bytes` (rounded
-    /// down to whole blocks, at least 4 blocks) and one table entry per block.
+    /// down to whole blocks, at least 4 blocks) and its block table
+    /// ([`table_entries`](pocketsplat_core::stream::table_entries) of its slots).
     ///
     /// The block count is checked against the source first ([`read_tg_header`] against
     /// [`ChunkSource::byte_len`]; a source that does not know its length must answer a read of the
@@ -72,7 +73,7 @@ impl OwnedStream {
         let mut scratch = vec![0u8; MAX_BLOCK];
         let (header, _, _) =
             read_tg_header(src, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
-        // One table entry per block of the file the header claims: bounded before it is allocated.
+        // What the header claims is bounded before anything is read by it.
         let claimed = u64::from(header.blocks) << header.block_log2;
         crate::limits::current().check("stream", "the file size its header claims", claimed)?;
         let bs = header.block_size();
@@ -91,14 +92,17 @@ impl OwnedStream {
         // for is smaller than that: `open` then says what the file needs.
         let asked = cache_bytes / bs;
         let slots = asked.max(pocketsplat_core::stream::MIN_SLOTS);
-        // Sized by `--cache` and by the header's block count (bounded above): asked for, so that
-        // a limit raised past the memory there is ends in an error.
+        // Sized by `--cache`: asked for, so that a cache past the memory there is ends in an
+        // error.
         let memory = || -> Result<Self> {
             Ok(Self {
                 header,
                 data: crate::memory::filled(0u8, slots * bs)?,
                 slots: crate::memory::filled(SlotEntry::EMPTY, slots)?,
-                blocks: crate::memory::filled(BlockEntry::EMPTY, header.blocks as usize)?,
+                blocks: crate::memory::filled(
+                    BlockEntry::EMPTY,
+                    table_entries(slots, QUEUE_CAPACITY),
+                )?,
                 asked,
             })
         };
@@ -160,8 +164,8 @@ pub struct OwnedQsStream {
 }
 
 impl OwnedQsStream {
-    /// A cache of `cache_bytes` (whole 512-byte blocks) and one table entry per block of the
-    /// `.qs` file on `src`, whose length the source must know.
+    /// A cache of `cache_bytes` (whole 512-byte blocks) and its block table for the `.qs` file on
+    /// `src`, whose length the source must know.
     ///
     /// # Errors
     /// When the source does not know the file's length, the file is over the `stream` limit, or
@@ -173,12 +177,14 @@ impl OwnedQsStream {
         crate::limits::current().check("stream", "the file size", file_len)?;
         let bs = 1usize << QS_BLOCK_LOG2;
         let slots = (cache_bytes / bs).max(pocketsplat_core::stream::MIN_SLOTS);
-        let blocks = usize::try_from(file_len.div_ceil(bs as u64))?;
         let memory = || -> Result<Self> {
             Ok(Self {
                 data: crate::memory::filled(0u8, slots * bs)?,
                 slots: crate::memory::filled(SlotEntry::EMPTY, slots)?,
-                blocks: crate::memory::filled(BlockEntry::EMPTY, blocks)?,
+                blocks: crate::memory::filled(
+                    BlockEntry::EMPTY,
+                    table_entries(slots, QUEUE_CAPACITY),
+                )?,
                 file_len,
             })
         };
