@@ -585,15 +585,25 @@ pub fn baked_big_scene(rho: u8) -> Result<Option<PathBuf>> {
 /// # Errors
 /// When `big.toml` no longer has 4 KB blocks to change, or the bake fails.
 pub fn big_scene_in_1k_blocks() -> Result<Option<Vec<u8>>> {
+    scene_in_1k_blocks("big")
+}
+
+/// The scene `boards/sim/scenes/{name}.toml` baked in 1 KB blocks (`paper`: the Big Scene at the
+/// paper's scale, 32 MB, whose least caches fall from 416 KB in 4 KB blocks to 126 KB). `None` off
+/// CI when a scan is missing ([`model`]).
+///
+/// # Errors
+/// When the scene file no longer has 4 KB blocks to change, or the bake fails.
+pub fn scene_in_1k_blocks(name: &str) -> Result<Option<Vec<u8>>> {
     for scan in BIG_SCENE_SCANS {
         if model(scan).is_none() {
             return Ok(None);
         }
     }
-    let text = fs::read_to_string(workspace_root().join("boards/sim/scenes/big.toml"))?;
+    let text = fs::read_to_string(workspace_root().join(format!("boards/sim/scenes/{name}.toml")))?;
     ensure!(
         text.contains("block_size = 4096"),
-        "big.toml's blocks changed"
+        "{name}.toml's blocks changed"
     );
     let text = text
         .replace("block_size = 4096", "block_size = 1024")
@@ -604,9 +614,9 @@ pub fn big_scene_in_1k_blocks() -> Result<Option<Vec<u8>>> {
     // One bake at a time: tests running at once write the same file.
     static BAKE: Mutex<()> = Mutex::new(());
     let _guard = BAKE.lock().unwrap_or_else(|p| p.into_inner());
-    let dir = target_dir().join("models/big1k");
+    let dir = target_dir().join(format!("models/{name}1k"));
     fs::create_dir_all(&dir)?;
-    let toml = dir.join("big1k.toml");
+    let toml = dir.join(format!("{name}1k.toml"));
     fs::write(&toml, text)?;
     let baked = pocketsplat_sim::scene::bake::bake_path(&toml, &Default::default())
         .with_context(|| format!("baking {}", toml.display()))?;

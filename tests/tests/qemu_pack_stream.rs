@@ -45,9 +45,34 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
     let Some(bytes) = pocketsplat_tests::arm::big_scene_in_1k_blocks().unwrap() else {
         return;
     };
-    let dir = target_dir().join("models/sd-big1k");
+    stream_pack_under_qemu("Big Scene", "sd-big1k", &bytes);
+}
+
+/// The Big Scene at the paper's scale (issue 31, items 3 and 5): `boards/sim/scenes/paper.toml`
+/// baked in 1 KB blocks (32 MB, 11.6 M samples at the deepest levels), streamed by the same
+/// firmware in the same 520 KB. Too long for CI (tens of thousands of passes under QEMU): run by
+/// `scripts/paper-scene --qemu`.
+#[test]
+#[ignore = "the paper-scale Big Scene under QEMU takes long: scripts/paper-scene --qemu"]
+fn the_paper_scale_big_scene_streams_under_qemu_in_520_kb_to_the_resident_frame() {
+    assert!(
+        have_qemu() && have("mkfs.fat", "dosfstools") && have("mcopy", "mtools"),
+        "qemu-system-arm, dosfstools and mtools are needed"
+    );
+    let bytes = pocketsplat_tests::arm::scene_in_1k_blocks("paper")
+        .unwrap()
+        .expect("the Stanford scans in $POCKETSPLAT_MODELS");
+    stream_pack_under_qemu("paper-scale Big Scene", "sd-paper1k", &bytes);
+}
+
+/// Puts `bytes` on a FAT image as `SCENE.PAK` (in `target/models/{dir}`), streams it with the
+/// firmware under QEMU and with the same call on the host, and checks that the two agree pass by
+/// pass, that the last pass completes the frame the pack opened whole gives, and that the build
+/// fits the Pico 2's 520 KB with its measured stack; prints what was read.
+fn stream_pack_under_qemu(name: &str, dir: &str, bytes: &[u8]) {
+    let dir = target_dir().join("models").join(dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let image = make_image(&dir, &bytes, PACK_FILE);
+    let image = make_image(&dir, bytes, PACK_FILE);
     let (elf, run) = Firmware::streaming(&["scene", "shadows", "qsplat"], &image)
         .build_and_run()
         .unwrap();
@@ -70,7 +95,7 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
     let last = arm.last().expect("a pass");
     assert!(last.converged(), "the refined frame completes: {last}");
     // The pack opened whole, drawn by the simulator in as many bands with the same map.
-    let scene = Scene::open(Pack::open(&bytes).unwrap(), Verify::Full).unwrap();
+    let scene = Scene::open(Pack::open(bytes).unwrap(), Verify::Full).unwrap();
     let (_, view) = scene.pack().view(0).unwrap();
     let settings = PackSettings {
         kernel: scene.options().kernel,
@@ -97,7 +122,7 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
         memory.ram
     );
     eprintln!(
-        "QEMU pack stream: Big Scene in 1 KB blocks, {} B, std at 1 px one-pass ({PACK_BANDS} \
+        "QEMU pack stream: {name} in 1 KB blocks, {} B, std at 1 px one-pass ({PACK_BANDS} \
          bands, map {PACK_MAP_SIZE}²) in {} passes through {} blocks: {read} bytes read \
          ({:.0} / {:.0} / {:.0} ms of SD reading at 2 / 10 / 20 MB/s); RAM {} B + stack {stack} B",
         bytes.len(),
@@ -111,11 +136,15 @@ fn the_big_scene_streams_from_a_fat_image_under_qemu_to_the_resident_frame() {
 }
 
 /// What `pocketsplat info` reports as a 520 KB device's RAM for a streamed pack is this firmware's
-/// configuration: its bands and its map.
+/// configuration: its bands, its map and its streams' queues.
 #[test]
 fn info_reports_the_firmwares_pack_configuration() {
     assert_eq!(usize::from(pocketsplat_sim::info::DEVICE_BANDS), PACK_BANDS);
     assert_eq!(pocketsplat_sim::info::DEVICE_MAP_SIZE, PACK_MAP_SIZE);
+    assert_eq!(
+        pocketsplat_sim::info::DEVICE_QUEUE,
+        pocketsplat_qemu::pack_stream::PACK_QUEUE
+    );
 }
 
 /// Hostile packs streamed under QEMU (issue 31, item 6): the firmware built with

@@ -1,6 +1,6 @@
 //! A scene pack (`SCENE.PAK`) on the card, with its one-pass shadows: the QEMU firmware's streamed
 //! pack (`pocketsplat_qemu::pack_stream`: every object through its share of one 80 KB cache, the
-//! panel in four bands of 80 rows, a 128² shadow map) driven by the buttons. While a button is held,
+//! panel in eight bands of 40 rows, a 128² shadow map) driven by the buttons. While a button is held,
 //! or until what the view needs at [`PREVIEW_CUTOFF_PX`] is resident, a whole frame at that cutoff
 //! from what is resident, band by band, each band sent to the panel as it is drawn; then the 1 px
 //! frame in passes ([`BandPasses`]), each band sent to the panel once its passes complete it: the

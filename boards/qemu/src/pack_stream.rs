@@ -18,8 +18,8 @@ use pocketsplat_core::scene::{Kind, MAX_META_BYTES, MAX_OBJECTS, MAX_SLOTS};
 #[cfg(feature = "shadows")]
 use pocketsplat_core::shadow::LightFrame;
 use pocketsplat_core::stream::{
-    cache_shares, read_pack_meta, BlockEntry, ChunkSource, ObjectStream, SceneStream, SlotEntry,
-    StreamError, TgStream, Window,
+    cache_shares, read_pack_meta, table_entries, BlockEntry, ChunkSource, ObjectStream,
+    SceneStream, SlotEntry, StreamError, TgStream, Window, MIN_QUEUE,
 };
 
 use crate::scene::{SceneTable, SceneTargets};
@@ -30,11 +30,12 @@ use crate::{Phase, HEIGHT, PANEL, WIDTH};
 
 /// The pack's file name in the volume's root directory (8.3).
 pub const PACK_FILE: &str = "SCENE.PAK";
-/// Bands of the panel a streamed pack's frame is drawn in: four bands of 80 rows (38.4 KB of
+/// Bands of the panel a streamed pack's frame is drawn in: eight bands of 40 rows (19.2 KB of
 /// colour and as much of depth, not 307.2 KB for both at once), for a walk of the scene per band.
-/// Two bands do not fit 520 KB beside the eight-slot shading table (148 KB), the cache and the
-/// object streams.
-pub const PACK_BANDS: usize = 4;
+/// Four bands (76.8 KB for both) do not fit 520 KB beside the eight-slot shading table (148 KB),
+/// the cache the paper-scale Big Scene's six objects need at least (126 KB), its block tables and
+/// the object streams.
+pub const PACK_BANDS: usize = 8;
 /// Rows of a band.
 pub const PACK_BAND_ROWS: usize = HEIGHT / PACK_BANDS;
 const _: () = assert!(
@@ -46,17 +47,24 @@ const _: () = assert!(
 pub const PACK_MAP_SIZE: usize = 128;
 /// Texels of that map.
 pub const PACK_MAP_TEXELS: usize = PACK_MAP_SIZE * PACK_MAP_SIZE;
-/// Bytes of block cache the pack's objects share (a static on the device).
-pub const PACK_CACHE_BYTES: usize = 80 * 1024;
+/// Bytes of block cache the pack's objects share (a static on the device): the least caches of
+/// the paper-scale Big Scene's six objects in 1 KB blocks (126 KB, `pocketsplat info`) and a few
+/// blocks more.
+pub const PACK_CACHE_BYTES: usize = 130 * 1024;
 /// Cache slots: one per block of the smallest block size (512 bytes).
 pub const PACK_CACHE_SLOTS: usize = PACK_CACHE_BYTES / 512;
-/// Blocks the pack's files may have together (one [`BlockEntry`] each, 16 bytes): 3 MB of files
-/// in 1 KB blocks.
-pub const PACK_MAX_BLOCKS: usize = 3072;
-/// Passes the refined frame may take before the run ends on what it has: the Big Scene in 1 KB
-/// blocks through [`PACK_CACHE_BYTES`] takes about 2,200 (each pass stops where a block it needs
-/// is absent, and the cache holds a few hundred of the frame's 2,600).
-pub const PACK_MAX_PASSES: u32 = 8192;
+/// Entries of the block tables the pack's objects share: each object's stream gets
+/// [`table_entries`] of its slots and [`PACK_QUEUE`] (16 bytes each), whatever the size of its
+/// file: the paper-scale Big Scene's 32 MB in 1 KB blocks takes no more than the Big Scene's 3 MB.
+pub const PACK_TABLE_ENTRIES: usize = 1024;
+/// Requests each object's stream may queue at once (its table's share; [`PACK_TABLE_ENTRIES`]
+/// too few for that many gives each [`pocketsplat_core::stream::MIN_QUEUE`]).
+pub const PACK_QUEUE: usize = 32;
+/// Passes the refined frame may take before the run ends on what it has (a card that stops
+/// answering ends it sooner: [`MAX_IDLE_PASSES`]): each pass stops where a block it needs is
+/// absent, and the cache holds a few hundred blocks of a frame that needs thousands (the
+/// paper-scale Big Scene's std view, tens of thousands).
+pub const PACK_MAX_PASSES: u32 = 1 << 17;
 /// Objects a streamed pack may have (a pack holds up to 16; each stream is 3.3 KB of RAM).
 pub const PACK_MAX_OBJECTS: usize = 8;
 /// Blocks of a streamed `.qs` object: 2 KB, as a streamed `.qs` file's
@@ -72,7 +80,7 @@ pub struct PackMemory<'a> {
     pub data: &'a mut [u8],
     /// Cache slots, likewise.
     pub slots: &'a mut [SlotEntry],
-    /// One entry per block of every object's file.
+    /// The objects' block tables, shared out likewise.
     pub blocks: &'a mut [BlockEntry],
     /// The objects' streams (kilobytes each: in a static, not on the stack).
     pub objects: &'a mut PackObjects<'a>,
@@ -112,12 +120,12 @@ impl PackBuffers {
     };
 }
 
-/// A streamed pack's tables: the cache's slots and one entry per block.
+/// A streamed pack's tables: the cache's slots and the objects' block tables.
 pub struct PackTables {
     /// Cache slots.
     pub slots: [SlotEntry; PACK_CACHE_SLOTS],
-    /// One entry per block of every object's file.
-    pub blocks: [BlockEntry; PACK_MAX_BLOCKS],
+    /// The objects' block tables.
+    pub blocks: [BlockEntry; PACK_TABLE_ENTRIES],
 }
 
 impl PackTables {
@@ -125,7 +133,7 @@ impl PackTables {
     /// empties the entries it uses first.
     pub const EMPTY: Self = Self {
         slots: [SlotEntry::UNSET; PACK_CACHE_SLOTS],
-        blocks: [BlockEntry::UNSET; PACK_MAX_BLOCKS],
+        blocks: [BlockEntry::UNSET; PACK_TABLE_ENTRIES],
     };
 }
 
@@ -180,8 +188,8 @@ fn take<'a, T>(rest: &mut &'a mut [T], n: usize) -> &'a mut [T] {
 ///
 /// # Errors
 /// [`StreamRunError::Pack`] when the metadata or an object cannot be read or is invalid,
-/// [`StreamRunError::PackMemory`] when the objects need more cache or block entries than `mem`
-/// has.
+/// [`StreamRunError::PackMemory`] when the objects need more cache or block-table entries than
+/// `mem` has.
 pub fn open_pack<'a, C: ChunkSource + ?Sized>(
     src: &mut C,
     mem: PackMemory<'a>,
@@ -197,10 +205,10 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
         });
     }
     let object = |i: usize| pack.object(i).ok_or(E::Scene(missing_object(i)));
-    // Each object's block size, blocks and least cache: a tri-grid's found by opening it through
+    // Each object's block size and least cache: a tri-grid's found by opening it through
     // the whole pool (what it needs is known once its header and head are read), a QSplat file's
     // the most any file needs.
-    let (mut log2, mut blocks) = ([0u8; MAX_OBJECTS], [0usize; MAX_OBJECTS]);
+    let mut log2 = [0u8; MAX_OBJECTS];
     let (mut lens, mut needs) = ([0usize; MAX_OBJECTS], [0usize; MAX_OBJECTS]);
     for i in 0..n {
         let rec = object(i).map_err(StreamRunError::Pack)?;
@@ -216,14 +224,13 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
             Kind::TriGrid => {
                 let need = match TgStream::open(win, mem.data, mem.slots, mem.blocks) {
                     Ok(s) => {
-                        (log2[i], blocks[i]) = (s.header().block_log2, s.header().blocks as usize);
+                        log2[i] = s.header().block_log2;
                         s.cache_need()
                     }
                     Err(StreamError::CacheTooSmall {
                         needed, block_size, ..
                     }) => {
                         log2[i] = block_size.trailing_zeros() as u8;
-                        blocks[i] = lens[i] >> log2[i];
                         needed
                     }
                     Err(e) => return Err(obj_err(e)),
@@ -233,7 +240,6 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
             #[cfg(feature = "qsplat")]
             Kind::QSplat => {
                 log2[i] = QS_BLOCK_LOG2;
-                blocks[i] = lens[i].div_ceil(1 << QS_BLOCK_LOG2);
                 // Opened once through the whole pool too, so that a file that is not what its
                 // record says is refused by its reader, not by what its share would be.
                 pocketsplat_core::stream::QsStream::open(
@@ -245,7 +251,8 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
                 )
                 .map_err(obj_err)?;
                 let need = pocketsplat_core::stream::QsStream::MAX_CACHE_NEED as usize;
-                needs[i] = (need << QS_BLOCK_LOG2).min(blocks[i] << QS_BLOCK_LOG2);
+                needs[i] =
+                    (need << QS_BLOCK_LOG2).min(lens[i].next_multiple_of(1 << QS_BLOCK_LOG2));
             }
             #[cfg(not(feature = "qsplat"))]
             Kind::QSplat => {
@@ -255,14 +262,6 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
             }
         }
     }
-    let entries: usize = blocks[..n].iter().sum();
-    if entries > mem.blocks.len() {
-        return Err(StreamRunError::PackMemory {
-            what: "block entries",
-            need: entries as u32,
-            have: mem.blocks.len() as u32,
-        });
-    }
     let mut shares = [0usize; MAX_OBJECTS];
     cache_shares(&lens[..n], &needs[..n], mem.data.len(), &mut shares[..n]).map_err(|need| {
         StreamRunError::PackMemory {
@@ -271,6 +270,17 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
             have: mem.data.len() as u32,
         }
     })?;
+    // Each object's block table: for a queue of PACK_QUEUE if they all fit, else of MIN_QUEUE.
+    let held = |i: usize| (shares[i] >> log2[i]).min(mem.slots.len());
+    let tables = |queue| (0..n).map(|i| table_entries(held(i), queue)).sum::<usize>();
+    let queue = [PACK_QUEUE, MIN_QUEUE]
+        .into_iter()
+        .find(|&q| tables(q) <= mem.blocks.len())
+        .ok_or(StreamRunError::PackMemory {
+            what: "block-table entries",
+            need: tables(MIN_QUEUE) as u32,
+            have: mem.blocks.len() as u32,
+        })?;
     let (mut data, mut slots, mut entries) = (mem.data, mem.slots, mem.blocks);
     // Each object's stream opened into the caller's room for it.
     let objects = mem.objects;
@@ -280,11 +290,11 @@ pub fn open_pack<'a, C: ChunkSource + ?Sized>(
         let win = &mut Window::of(src, &rec);
         // Whole blocks of the share; a slot for each (the slots are as many as 512-byte blocks in
         // the pool, so every share's fit).
-        let held = shares[i] >> log2[i];
-        let d = take(&mut data, held << log2[i]);
-        let n_slots = held.min(slots.len());
+        let whole = shares[i] >> log2[i];
+        let d = take(&mut data, whole << log2[i]);
+        let n_slots = whole.min(slots.len());
         let s = take(&mut slots, n_slots);
-        let b = take(&mut entries, blocks[i]);
+        let b = take(&mut entries, table_entries(n_slots, queue));
         let stream = match rec.kind {
             Kind::TriGrid => TgStream::open(win, d, s, b).map(ObjectStream::Grid),
             #[cfg(feature = "qsplat")]

@@ -190,8 +190,8 @@ impl<'a> QsStream<'a> {
     /// Opens a `.qs` file on `src`: reads its fragment headers (and the start of a comment, for
     /// pocketsplat's bounds), and sets up a cache of `2^block_log2`-byte blocks in `data` (at most
     /// `slots.len()` of them) with a block table of `table` ([`table_entries`](super::table_entries)
-    /// of the slots for a full request queue). Memory is the caller's: statics on a device; none of
-    /// it grows with the file.
+    /// of the slots and the request queue wanted). Memory is the caller's: statics on a device;
+    /// none of it grows with the file.
     ///
     /// # Errors
     /// A [`StreamError`]: the medium does not know the file's length, a header could not be read

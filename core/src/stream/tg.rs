@@ -92,7 +92,8 @@ impl<'a> TgStream<'a> {
     /// Opens a `.tg` file on `src`: reads its header and checks its CRC table (retrying each
     /// read), and sets up a cache of `data.len() / block_size` blocks (at most `slots.len()`) with
     /// a block table of `table` ([`table_entries`](super::table_entries) of the slots and the
-    /// request queue wanted). Memory is the caller's: statics on a device; none of it grows with the file.
+    /// request queue wanted). Memory is the caller's: statics on a device; none of it grows with
+    /// the file.
     ///
     /// # Errors
     /// A [`StreamError`]: the header or CRC table could not be read or is invalid, or the memory

@@ -14,7 +14,7 @@ use pocketsplat_core::qs::QSplat;
 use pocketsplat_core::tg::{TriGrid, Verify};
 
 pub use large::RESIDENT_MAX;
-pub use pack::{pack_info, PackInfo, DEVICE_BANDS, DEVICE_MAP_SIZE, PICO2_RAM};
+pub use pack::{pack_info, PackInfo, DEVICE_BANDS, DEVICE_MAP_SIZE, DEVICE_QUEUE, PICO2_RAM};
 pub use qs::{qs_info, qs_info_of, QsInfo};
 pub use tg::{tg_info, tg_info_of, LevelInfo, TgInfo};
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use pocketsplat_core::camera::{Sphere, Viewport};
 use pocketsplat_core::scene::{ram_budget, RamBudget, Savings, ShadowMode};
-use pocketsplat_core::stream::{BlockEntry, QsStream, SlotEntry, TgStream};
+use pocketsplat_core::stream::{table_entries, BlockEntry, QsStream, SlotEntry, TgStream};
 use serde_json::json;
 
 use super::tg::tg_info;
@@ -67,10 +67,10 @@ pub const PICO2_RAM: usize = 520 * 1024;
 
 /// Bands a 520 KB device draws a streamed scene's frame in (`render --bands` draws a resident
 /// frame so), as the QEMU firmware's streamed pack does (`pocketsplat_qemu::pack_stream::PACK_BANDS`,
-/// which a test keeps equal): a band's colour and depth instead of a frame's (76,800 bytes, not
-/// 307,200), for a walk of the scene per band (two bands do not fit beside an eight-slot shading
-/// table, the cache and the objects' streams).
-pub const DEVICE_BANDS: u16 = 4;
+/// which a test keeps equal): a band's colour and depth instead of a frame's (38,400 bytes, not
+/// 307,200), for a walk of the scene per band (four bands do not fit beside an eight-slot shading
+/// table, the cache the paper-scale Big Scene needs, the block tables and the objects' streams).
+pub const DEVICE_BANDS: u16 = 8;
 
 /// The shadow-map side such a device draws with (`render --shadow-map`; the firmware's
 /// `PACK_MAP_SIZE`): 32 KB. Against the f64
@@ -78,20 +78,26 @@ pub const DEVICE_BANDS: u16 = 4;
 /// 26.43 dB; 24.24 without shadows).
 pub const DEVICE_MAP_SIZE: usize = 128;
 
-/// RAM of the streams' own tables when each object streams through `caches[i]` bytes: per block
-/// of its file a [`BlockEntry`], per slot of its cache a [`SlotEntry`], and the stream itself.
+/// Requests each object's stream of such a device queues at once (the firmware's `PACK_QUEUE`,
+/// which a test keeps equal): its block table is sized by this and its cache, not by its file.
+pub const DEVICE_QUEUE: usize = 32;
+
+/// RAM of the streams' own tables when each object streams through `caches[i]` bytes: a block
+/// table of [`table_entries`] of its slots and [`DEVICE_QUEUE`] [`BlockEntry`]s, per slot of its
+/// cache a [`SlotEntry`], and the stream itself.
 fn stream_tables(scene: &pocketsplat_core::scene::Scene<'_>, caches: &[usize]) -> usize {
     use core::mem::size_of;
-    let pack = scene.pack();
     (0..scene.len())
-        .filter_map(|i| Some((pack.object(i)?, caches.get(i).copied()?, i)))
-        .map(|(rec, cache, i)| {
+        .filter_map(|i| Some((caches.get(i).copied()?, i)))
+        .map(|(cache, i)| {
             let (log2, stream) = match scene.grid(i) {
                 Some(g) => (g.header().block_log2, size_of::<TgStream<'static>>()),
                 None => (QS_BLOCK_LOG2, size_of::<QsStream<'static>>()),
             };
-            let blocks = (rec.data_len as usize).div_ceil(1 << log2);
-            blocks * size_of::<BlockEntry>() + (cache >> log2) * size_of::<SlotEntry>() + stream
+            let slots = cache >> log2;
+            table_entries(slots, DEVICE_QUEUE) * size_of::<BlockEntry>()
+                + slots * size_of::<SlotEntry>()
+                + stream
         })
         .sum()
 }
