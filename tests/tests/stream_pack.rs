@@ -409,9 +409,10 @@ fn a_frame_converges_only_once_what_it_casts_is_read() {
 }
 
 /// The RAM budget of the Big Scene streamed as a 520 KB device would draw it (issue 31, item 4):
-/// four bands, a 128² map, the least caches. As baked for benchmarks (4 KB blocks) its caches
-/// alone are 228 KB and it does not fit; baked with 1 KB blocks (the least cache falls to 78 KB,
-/// for more blocks to keep a table entry of) it must, before the stack, with room for one.
+/// eight bands, a 128² map, the least caches. As baked for benchmarks (4 KB blocks) its caches
+/// alone are 228 KB and it does not fit; baked with 1 KB blocks (the least cache falls to 78 KB;
+/// the block tables follow the caches, not the files) it must, before the stack, with room for
+/// one.
 #[test]
 fn the_big_scene_in_1k_blocks_fits_a_520_kb_device_before_its_stack() {
     let Some(bytes) = pocketsplat_tests::arm::big_scene_in_1k_blocks().unwrap() else {

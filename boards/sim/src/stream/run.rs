@@ -59,7 +59,7 @@ fn too_small(cache_bytes: usize, block_size: usize, needed: u32) -> anyhow::Erro
 impl OwnedStream {
     /// Reads the header of the `.tg` file on `src` and allocates a cache of `cache_bytes` (rounded
     /// down to whole blocks, at least 4 blocks) and its block table
-    /// ([`table_entries`](pocketsplat_core::stream::table_entries) of its slots).
+    /// ([`table_entries`] of its slots).
     ///
     /// The block count is checked against the source first ([`read_tg_header`] against
     /// [`ChunkSource::byte_len`]; a source that does not know its length must answer a read of the
