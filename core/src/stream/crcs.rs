@@ -41,11 +41,18 @@ impl CrcWindow {
         }
     }
 
-    /// The CRC of block `b`, reading its window from `src` when it is not the one held (`None`:
-    /// the read failed, or there is no such block).
-    pub(crate) fn crc<C: ChunkSource + ?Sized>(&mut self, src: &mut C, b: u32) -> Option<u32> {
+    /// The CRC of block `b` (`None`: there is no such block), reading its window from `src` when it
+    /// is not the one held.
+    ///
+    /// # Errors
+    /// The medium's, when the window's read fails.
+    pub(crate) fn crc<C: ChunkSource + ?Sized>(
+        &mut self,
+        src: &mut C,
+        b: u32,
+    ) -> Result<Option<u32>, C::Error> {
         if b >= self.blocks {
-            return None;
+            return Ok(None);
         }
         if !(self.first..self.first + self.len).contains(&b) {
             let first = b - b % CRC_WINDOW as u32;
@@ -54,13 +61,14 @@ impl CrcWindow {
             self.reads += 1;
             self.bytes_read += buf.len() as u64;
             self.len = 0;
-            src.read_at(self.table_at + 4 * u64::from(first), buf)
-                .ok()?;
+            src.read_at(self.table_at + 4 * u64::from(first), buf)?;
             (self.first, self.len) = (first, len);
         }
         let i = 4 * (b - self.first) as usize;
-        let w = self.bytes.get(i..i + 4)?;
-        Some(u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        Ok(self
+            .bytes
+            .get(i..i + 4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])))
     }
 
     /// Forgets the window held (a block failed against it: read it again next time).
@@ -83,20 +91,20 @@ mod tests {
         }
         let mut src = MemSource::new(&file);
         let mut w = CrcWindow::new(512, 100);
-        assert_eq!(w.crc(&mut src, 5), Some(15));
-        assert_eq!(w.crc(&mut src, 63), Some(189));
+        assert_eq!(w.crc(&mut src, 5), Ok(Some(15)));
+        assert_eq!(w.crc(&mut src, 63), Ok(Some(189)));
         assert_eq!((w.reads, w.bytes_read), (1, 256));
         // The last window is short: it ends with the table.
-        assert_eq!(w.crc(&mut src, 99), Some(297));
+        assert_eq!(w.crc(&mut src, 99), Ok(Some(297)));
         assert_eq!((w.reads, w.bytes_read), (2, 256 + 144));
-        assert_eq!(w.crc(&mut src, 100), None);
+        assert_eq!(w.crc(&mut src, 100), Ok(None));
         w.forget();
-        assert_eq!(w.crc(&mut src, 64), Some(192));
+        assert_eq!(w.crc(&mut src, 64), Ok(Some(192)));
         assert_eq!(w.reads, 3);
-        // A read that fails gives no CRC, and no window.
+        // A read that fails gives the medium's error, and no window.
         let mut short = MemSource::new(&file[..600]);
         let mut w = CrcWindow::new(512, 100);
-        assert_eq!(w.crc(&mut short, 1), None);
+        assert!(w.crc(&mut short, 1).is_err());
         assert_eq!(w.len, 0);
     }
 }

@@ -145,16 +145,22 @@ impl<C: ChunkSource + ?Sized> SlotReader<'_, '_, C> {
                     self.reads.read_errors += 1;
                     self.failed.get_or_insert(StreamError::Device(e));
                 }
-                Ok(()) if self.crcs.crc(self.src, b32) != Some(crc32(buf)) => {
-                    self.crcs.forget();
-                    self.reads.crc_errors += 1;
-                    self.failed
-                        .get_or_insert(StreamError::Format(TgError::BlockCrc(b as u32)));
-                }
-                Ok(()) => {
-                    self.failed = None;
-                    return self.cache.install(s, b, 0).then_some(());
-                }
+                Ok(()) => match self.crcs.crc(self.src, b32) {
+                    Err(e) => {
+                        self.reads.read_errors += 1;
+                        self.failed.get_or_insert(StreamError::Device(e));
+                    }
+                    Ok(want) if want != Some(crc32(buf)) => {
+                        self.crcs.forget();
+                        self.reads.crc_errors += 1;
+                        self.failed
+                            .get_or_insert(StreamError::Format(TgError::BlockCrc(b as u32)));
+                    }
+                    Ok(_) => {
+                        self.failed = None;
+                        return self.cache.install(s, b, 0).then_some(());
+                    }
+                },
             }
         }
         None

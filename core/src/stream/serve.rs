@@ -91,6 +91,8 @@ pub(crate) enum Verdict {
     Good,
     /// It fails its CRC.
     Crc,
+    /// What checking it needs could not be read (a `.tg` block's CRC): a failed read.
+    Unread,
     /// Its CRC is right (or it has none) but its structure is not.
     Structure,
 }
@@ -269,6 +271,10 @@ impl Feed<'_, '_> {
                 Verdict::Good => true,
                 Verdict::Crc => {
                     self.counters.crc_errors += 1;
+                    false
+                }
+                Verdict::Unread => {
+                    self.counters.read_errors += 1;
                     false
                 }
                 // Sealed but malformed: absent, exactly as a damaged block (issue 17).

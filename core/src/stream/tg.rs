@@ -591,15 +591,14 @@ impl<'a> TgStream<'a> {
             self.missing,
             // The data blocks in file order: coarse levels first.
             |cache, frame| first_absent(cache, first, frame),
-            |b, buf, src| {
-                if crcs.crc(src, b as u32) != Some(crc32(buf)) {
+            |b, buf, src| match crcs.crc(src, b as u32) {
+                Err(_) => Verdict::Unread,
+                Ok(want) if want != Some(crc32(buf)) => {
                     crcs.forget();
                     Verdict::Crc
-                } else if check_block(&header, &dirs, b as u32, buf).is_err() {
-                    Verdict::Structure
-                } else {
-                    Verdict::Good
                 }
+                Ok(_) if check_block(&header, &dirs, b as u32, buf).is_err() => Verdict::Structure,
+                Ok(_) => Verdict::Good,
             },
         );
         self.counters.reads += self.crcs.reads - reads;
