@@ -3,7 +3,7 @@
 //! a sample's centre and filled over its footprint.
 #![deny(clippy::float_arithmetic)]
 
-use super::light::{LightFrame, LightPos};
+use super::light::{LightFrame, LightPos, BEHIND_ROW};
 use super::{ShadowMap, LIGHT_FRAC};
 use crate::fixed::recip;
 use crate::normal::{self, NORMALS_Q14, NORMAL_COUNT};
@@ -25,13 +25,15 @@ pub(super) const UNLIT_Q28: [i32; 8] = [
     i32::MIN,
 ];
 
-/// Whether a texel holding `nearest` shadows a directional light's sample at Q8 depth `d`, with
-/// `behind` from `Derived::behind` (its bias plus one map unit): `nearest < depth16(d − bias)`,
-/// compared in Q8 without clamping `d − bias` (the same answer for every depth in the root cube,
-/// whose extent along the light the map's 16 bits span), two instructions fewer a sample.
+/// Whether a texel holding `nearest` shadows a directional light's sample at Q8 depth `d` (1) or
+/// not (0), with `behind` from `Derived::behind` (its bias plus one map unit, less one):
+/// `nearest < depth16(d − bias)`, compared in Q8 without clamping `d − bias` (the same answer for
+/// every depth in the root cube, whose extent along the light the map's 16 bits span), as the
+/// sign of `nearest · 2⁸ + behind − d` (both terms within ±2²⁶ there): two instructions fewer a
+/// sample than a compare and its flag.
 #[inline(always)]
-fn behind(nearest: u16, d: i32, behind: i32) -> bool {
-    (i32::from(nearest) << LIGHT_FRAC) + behind <= d
+fn behind(nearest: u16, d: i32, behind: i32) -> u32 {
+    ((i32::from(nearest) << LIGHT_FRAC) + behind).wrapping_sub(d) as u32 >> 31
 }
 
 impl LightFrame {
@@ -85,7 +87,11 @@ impl LightFrame {
             let bias = self.bias_at::<true>(row - 1, p[2], usize::from(k - 1));
             nearest < self.depth16::<POINT>(p[2] - bias)
         } else {
-            behind(nearest, p[2], self.derived.behind[row][usize::from(k)])
+            behind(
+                nearest,
+                p[2],
+                self.derived.behind[row][usize::from(k) & (BEHIND_ROW - 1)],
+            ) != 0
         }
     }
 
@@ -148,7 +154,11 @@ impl LightFrame {
         };
         let nearest = *t;
         *t = nearest.min(self.depth16::<false>(p[2]));
-        behind(nearest, p[2], self.derived.behind[row][usize::from(k)])
+        behind(
+            nearest,
+            p[2],
+            self.derived.behind[row][usize::from(k) & (BEHIND_ROW - 1)],
+        ) != 0
     }
 
     /// Whether every sample below a cell with normal `code` and cone `class` faces away from
@@ -179,6 +189,16 @@ impl OnePass<'_, '_, '_> {
     /// Fills the footprints of the children `mask` of a cell at `level` (= `S − 1`) at `p`.
     #[inline]
     fn fill_children(&mut self, level: usize, p: LightPos, mask: u32) {
+        if self.map.texels().holds_stop_level(self.light) {
+            self.fill_children_in::<true>(level, p, mask);
+        } else {
+            self.fill_children_in::<false>(level, p, mask);
+        }
+    }
+
+    /// [`OnePass::fill_children`]; `IN_MAP`: every stop-level texel is in the map.
+    #[inline(always)]
+    fn fill_children_in<const IN_MAP: bool>(&mut self, level: usize, p: LightPos, mask: u32) {
         let light = self.light;
         let disp = &light.disp[level + 1];
         let mut texels = self.map.texels();
@@ -188,10 +208,44 @@ impl OnePass<'_, '_, '_> {
             m &= m - 1;
             let d = disp[s];
             let (u, v) = ((p[0] + d[0]) >> LIGHT_FRAC, (p[1] + d[1]) >> LIGHT_FRAC);
-            if let Some(t) = texels.at_mut(u, v) {
+            if let Some(t) = texels.at_mut_in::<IN_MAP>(u, v) {
                 *t = (*t).min(light.depth16::<false>(p[2] + d[2]));
             }
         }
+    }
+
+    /// [`ShadowHooks::drawn_children`] at the stop level; `IN_MAP`: every stop-level texel is in
+    /// the map, so none is tested against its bounds.
+    #[inline(always)]
+    fn test_and_fill_children<const IN_MAP: bool>(
+        &mut self,
+        parent: LightPos,
+        level: usize,
+        mask: u32,
+        attr: impl Fn(u32) -> u16,
+    ) -> u32 {
+        let light = self.light;
+        let disp = &light.disp[level];
+        let behind_at = &light.derived.behind[level];
+        let facing = &light.derived.facing;
+        let mut texels = self.map.texels();
+        let mut shadowed = 0;
+        each_slot(mask, |i, s| {
+            let k = facing[usize::from(attr(i)) & (NORMAL_COUNT - 1)];
+            if k == 0 {
+                shadowed |= 1 << s;
+                return;
+            }
+            let d = disp[s];
+            let p = [parent[0] + d[0], parent[1] + d[1], parent[2] + d[2]];
+            if let Some(t) = texels.at_mut_in::<IN_MAP>(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) {
+                let nearest = *t;
+                *t = nearest.min(light.depth16::<false>(p[2]));
+                shadowed |=
+                    behind(nearest, p[2], behind_at[usize::from(k) & (BEHIND_ROW - 1)]) << s;
+            }
+        });
+        shadowed
     }
 }
 
@@ -255,30 +309,14 @@ impl ShadowHooks for OnePass<'_, '_, '_> {
         mask: u32,
         attr: impl Fn(u32) -> u16,
     ) -> u32 {
-        let light = self.light;
-        if level != light.stop_level {
+        if level != self.light.stop_level {
             return drawn_each(self, parent, level, mask, attr);
         }
-        let disp = &light.disp[level];
-        let behind_at = &light.derived.behind[level];
-        let facing = &light.derived.facing;
-        let mut texels = self.map.texels();
-        let mut shadowed = 0;
-        each_slot(mask, |i, s| {
-            let k = facing[usize::from(attr(i)) & (NORMAL_COUNT - 1)];
-            if k == 0 {
-                shadowed |= 1 << s;
-                return;
-            }
-            let d = disp[s];
-            let p = [parent[0] + d[0], parent[1] + d[1], parent[2] + d[2]];
-            if let Some(t) = texels.at_mut(p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC) {
-                let nearest = *t;
-                *t = nearest.min(light.depth16::<false>(p[2]));
-                shadowed |= u32::from(behind(nearest, p[2], behind_at[usize::from(k)])) << s;
-            }
-        });
-        shadowed
+        if self.map.texels().holds_stop_level(self.light) {
+            self.test_and_fill_children::<true>(parent, level, mask, attr)
+        } else {
+            self.test_and_fill_children::<false>(parent, level, mask, attr)
+        }
     }
     /// As [`OnePass::drawn`] without the test.
     #[inline]

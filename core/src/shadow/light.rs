@@ -72,6 +72,11 @@ pub struct LightFrame {
     pub(super) texel_q16: i32,
     /// A fill-only descent stops at this level and below (cells ≤ 1 texel).
     pub(super) stop_level: usize,
+    /// The least map side whose texels hold every position a cell at the stop level can have
+    /// (the root plus, level by level, the least and greatest displacement of any slot), in
+    /// integer arithmetic; `usize::MAX` when a position can fall below texel 0. A map at least
+    /// this wide needs no bounds test at the stop level ([`super::hooks`]).
+    pub(super) stop_side: usize,
     pub(super) order: SlotOrder,
     /// Whether this is a point light, and its depth scale (zero for a directional light).
     pub(super) point: bool,
@@ -80,6 +85,9 @@ pub struct LightFrame {
     pub(super) derived: Derived,
 }
 
+/// The length of a row of `Derived::behind`: a power of two above the 66 `facing` values.
+pub(super) const BEHIND_ROW: usize = 128;
+
 /// What a sample's shadow test looks up instead of computing, made once per light.
 #[derive(Clone, Debug)]
 pub(super) struct Derived {
@@ -87,17 +95,41 @@ pub(super) struct Derived {
     /// `tan_q8` index of its `n·l`.
     pub(super) facing: [u8; NORMAL_COUNT],
     /// Directional lights: by row and `facing` value, how far (Q8 depth) a sample must lie
-    /// behind a texel's depth to be in its shadow: the whole depth bias plus one map unit
-    /// (what `hooks::behind` compares). Row `l + 1` is level `l`, and row 0 is level 0 again, so that one-pass's
+    /// behind a texel's depth to be in its shadow, less one: the whole depth bias plus one map
+    /// unit, less one (what `hooks::behind` compares). Row `l + 1` is level `l`, and row 0 is level 0 again, so that one-pass's
     /// "as for the parent's level" is row `l`.
-    pub(super) behind: [[i32; 66]; MAX_LEVELS + 1],
+    /// Rows are [`BEHIND_ROW`] long (66 are used) so that a `facing` value masked to the row
+    /// indexes it without a bounds test.
+    pub(super) behind: [[i32; BEHIND_ROW]; MAX_LEVELS + 1],
 }
 
 impl Derived {
     const EMPTY: Derived = Derived {
         facing: [0; NORMAL_COUNT],
-        behind: [[0; 66]; MAX_LEVELS + 1],
+        behind: [[0; BEHIND_ROW]; MAX_LEVELS + 1],
     };
+}
+
+/// [`LightFrame::stop_side`] of a light with `root` and displacements `disp`: every cell at
+/// `stop_level` lies at the root plus one slot's displacement per level, so the sums of each
+/// level's least and greatest displacement bound them (in `i64`: saturated tables cannot wrap).
+fn stop_side(
+    root: LightPos,
+    disp: &[[[i32; 3]; SLOT_TABLE]; MAX_LEVELS],
+    stop_level: usize,
+) -> usize {
+    let mut lo = [i64::from(root[0]), i64::from(root[1])];
+    let mut hi = lo;
+    for level in disp.iter().take(stop_level + 1).skip(1) {
+        for k in 0..2 {
+            lo[k] += level.iter().map(|d| i64::from(d[k])).min().unwrap_or(0);
+            hi[k] += level.iter().map(|d| i64::from(d[k])).max().unwrap_or(0);
+        }
+    }
+    if lo[0].min(lo[1]) < 0 {
+        return usize::MAX;
+    }
+    usize::try_from((hi[0].max(hi[1]) >> LIGHT_FRAC) + 1).unwrap_or(usize::MAX)
 }
 
 /// `x` rounded (halves away from zero) and saturated to ±(2³¹ − 1), NaN to 0, in integer
@@ -163,6 +195,7 @@ impl LightFrame {
         reach: [0; MAX_LEVELS],
         texel_q16: 0,
         stop_level: 0,
+        stop_side: usize::MAX,
         order: SlotOrder::NONE,
         point: false,
         point_depth: PointDepth {
@@ -366,6 +399,8 @@ impl LightFrame {
             // A texel at distance W spans W·2·tan/N across.
             texel_q16: to_i(2.0 * tan / n * 65536.0),
             stop_level,
+            // A point light's map is never looked up without its bounds test.
+            stop_side: usize::MAX,
             order: SlotOrder::new(light_order(rho, axis_d)),
             point: true,
             point_depth: PointDepth {
@@ -402,6 +437,7 @@ impl LightFrame {
         self.reach = reach;
         self.texel_q16 = 0;
         self.stop_level = stop_level;
+        self.stop_side = stop_side(root, &self.disp, stop_level);
         self.order = SlotOrder::new(light_order(rho, travel));
         self.point = false;
         self.point_depth = PointDepth::default();
@@ -444,7 +480,7 @@ impl LightFrame {
                 let level = row.max(1) - 1;
                 for k in 1..66 {
                     self.derived.behind[row][k] =
-                        self.bias_at::<false>(level, 0, k - 1) + (1 << LIGHT_FRAC);
+                        self.bias_at::<false>(level, 0, k - 1) + (1 << LIGHT_FRAC) - 1;
                 }
             }
         }

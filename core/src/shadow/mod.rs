@@ -206,6 +206,29 @@ impl Texels<'_> {
     fn at_mut(&mut self, u: i32, v: i32) -> Option<&mut u16> {
         texel_at(self.depth, self.size, u, v)
     }
+
+    /// [`Texels::at_mut`]; with `IN_MAP`, for a texel the caller knows is in the map (a cell at
+    /// the stop level of a light whose `stop_side` is at most this map's side),
+    /// without the test.
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    fn at_mut_in<const IN_MAP: bool>(&mut self, u: i32, v: i32) -> Option<&mut u16> {
+        if IN_MAP {
+            let at = v as usize * self.size + u as usize;
+            debug_assert!((u as u32 as usize) < self.size && (v as u32 as usize) < self.size);
+            // SAFETY: the light's integer bounds on every stop-level position (`stop_side`)
+            // put `u, v` in `0..size`, so `at < size² ≤ depth.len()`.
+            Some(unsafe { self.depth.get_unchecked_mut(at) })
+        } else {
+            self.at_mut(u, v)
+        }
+    }
+
+    /// Whether every stop-level texel of `light` is in this map.
+    #[inline(always)]
+    fn holds_stop_level(&self, light: &LightFrame) -> bool {
+        self.size >= light.stop_side
+    }
 }
 
 /// Texel `(u, v)` of the `size × size` depths at the start of `depth`, if it is in the map.

@@ -203,3 +203,49 @@ fn unlit_bounds_are_minus_the_sine_of_each_cone_angle_and_its_margin() {
     assert_eq!(super::hooks::UNLIT_Q28[0], i32::MIN);
     assert_eq!(super::hooks::UNLIT_Q28[7], i32::MIN);
 }
+
+#[test]
+fn every_stop_level_cell_lies_within_stop_side_and_the_map_holds_them() {
+    // Lights from many directions (the axes and their diagonals among them), depth-6 grids
+    // and three map sides: every cell at the stop level, reached as the walk reaches it (the
+    // root plus one displacement per level), lies in texels 0..stop_side, and stop_side is
+    // within the map, so the one-pass stop-level loops skip their bounds tests.
+    let mut next = crate::testing::signed_uniform(0x9e37_79b9_u64);
+    let mut dirs: Vec<Vec3> = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [1.0, 1.0, 1.0],
+        [-1.0, 1.0, 0.0],
+    ];
+    dirs.extend((0..20).map(|_| [next(), next(), next()]));
+    for dir in dirs {
+        let dir = camera::normalize(dir);
+        for map in [64, 128, 256] {
+            let light = LightFrame::new(&header(), &Placement::IDENTITY, dir, map);
+            let stop = light.stop_level;
+            assert!(
+                light.stop_side <= map,
+                "{dir:?}, map {map}: {}",
+                light.stop_side
+            );
+            let mut level_cells = vec![light.root];
+            for level in 1..=stop {
+                level_cells = level_cells
+                    .iter()
+                    .flat_map(|p| (0..27).map(move |s| (p, s)))
+                    .map(|(p, s)| light.step(*p, level, s))
+                    .collect();
+            }
+            for p in level_cells {
+                let (u, v) = (p[0] >> LIGHT_FRAC, p[1] >> LIGHT_FRAC);
+                assert!(
+                    (0..light.stop_side as i32).contains(&u)
+                        && (0..light.stop_side as i32).contains(&v),
+                    "{dir:?}, map {map}: texel ({u}, {v}) outside {}",
+                    light.stop_side
+                );
+            }
+        }
+    }
+}
