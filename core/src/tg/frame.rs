@@ -30,6 +30,14 @@
 //! neighbours, and a splat grown to at least one pixel would grow every silhouette by half a pixel.
 //! `FOOTPRINT` is a little over 1 so that perspective and the centroids' shifts leave no pixel
 //! centre between neighbouring footprints.
+//!
+//! That holds where the surface's cells line up with the image's axes. A flat model (a ground)
+//! is one grid of faces, and a view that turns it (the Big Scene from `top`, 20° of azimuth) puts
+//! the faces' images on a turned lattice that squares of the projected side do not cover: pixel
+//! centres fall between them in dotted diagonal lines. For a flat model the side is scaled by
+//! [`flat_grid_cover`], the least square that covers the grid's image at every ray the model
+//! spans ([`footprint`]); where the grid is foreshortened that is less than one side, so the
+//! splats also overlap less.
 
 use super::read::Header;
 use super::MAX_LEVELS;
@@ -194,6 +202,113 @@ pub(crate) fn round_to_i32(x: f64) -> i32 {
     }
 }
 
+/// A drawn cell's splat side (square) or diameter (round) over its projected side:
+/// [`FOOTPRINT`] or [`FOOTPRINT_ROUND`], times [`flat_grid_cover`] for a flat model.
+///
+/// A model whose bounds are thinner than half a leaf cell along an axis is flat: its cells' patches
+/// are their faces across that axis, one grid, whose image the view turns and shears. Squares of
+/// the projected side leave pixel centres uncovered between them where the grid is turned (a 45°
+/// turn needs √2 sides) and cover each other many times over where it is foreshortened; the grid's
+/// own cover gives the side that is just enough. Any other model's cells face every way, and keep
+/// the base factor.
+pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel: Kernel) -> f64 {
+    let base = match kernel {
+        Kernel::Square => FOOTPRINT,
+        Kernel::Round => FOOTPRINT_ROUND,
+    };
+    let [lo, hi] = header.bounds64;
+    let leaf = (0..header.depth).fold(header.side64, |side, _| side / f64::from(header.rho));
+    let Some(axis) = (0..3).find(|&a| hi[a] - lo[a] <= 0.5 * leaf) else {
+        return base;
+    };
+    // The rays the model's bounds span, within the image's (all of them where a corner lies
+    // behind the eye).
+    let f = camera.focal_px;
+    let (cx, cy) = camera.viewport.center();
+    // Camera y is up, the image's down.
+    let image = [
+        [-cx / f, (f64::from(camera.viewport.width) - cx) / f],
+        [(cy - f64::from(camera.viewport.height)) / f, cy / f],
+    ];
+    let mut rays = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
+    for corner in 0..8 {
+        let p: Vec3 = core::array::from_fn(|k| if corner >> k & 1 != 0 { hi[k] } else { lo[k] });
+        let v = camera.to_camera(placement.apply(p));
+        if !(v[2] > 0.0) {
+            rays = image;
+            break;
+        }
+        for k in 0..2 {
+            let t = v[k] / v[2];
+            rays[k] = [rays[k][0].min(t), rays[k][1].max(t)];
+        }
+    }
+    for k in 0..2 {
+        rays[k] = [rays[k][0].max(image[k][0]), rays[k][1].min(image[k][1])];
+        if !(rays[k][0] <= rays[k][1]) {
+            return base; // off the image: nothing to draw
+        }
+    }
+    base * flat_grid_cover(axis, placement, camera, rays)
+}
+
+/// The side, in projected cell sides, of axis-aligned squares centred on the cells of a flat grid
+/// across model axis `axis` that cover the grid's image wherever it lies in the view.
+///
+/// At a view ray `(t_x, t_y)` (`x/z`, `y/z`), a model direction `d` (view coordinates) moves the
+/// image by `(d_x − t_x d_z, d_y − t_y d_z)` per projected side, so the grid's cells sit on a
+/// lattice spanned by the images `B`, `C` of its two axes. A row of squares of side `S` along a
+/// lattice vector `v` with `|v_x| ≤ S` covers a band `S − |v_y|` tall about its line, and the
+/// rows lie `|B × C| / |v_x|` apart vertically: they cover the plane when
+/// `S ≥ max(|v_x|, |v_y| + |B × C| / |v_x|)` (or the same with x and y swapped, for columns).
+/// The least such `S` over `v ∈ {B, C, B + C, B − C}`, at the worst of a 5 × 5 grid of rays over
+/// `rays` (`[t_x range, t_y range]`), at most the lattice cell's bounding box.
+pub fn flat_grid_cover(
+    axis: usize,
+    placement: &Placement,
+    camera: &Camera,
+    rays: [[f64; 2]; 2],
+) -> f64 {
+    let r = &placement.rotation;
+    let view = |m: usize| {
+        let d = [r[0][m], r[1][m], r[2][m]];
+        let dot = |a: Vec3| a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
+        [dot(camera.right), dot(camera.up), dot(camera.forward)]
+    };
+    let (b, c) = (view((axis + 1) % 3), view((axis + 2) % 3));
+    let band = |along: f64, across: f64, det: f64| {
+        if libm::fabs(along) < 1e-9 {
+            f64::INFINITY
+        } else {
+            libm::fabs(along).max(libm::fabs(across) + det / libm::fabs(along))
+        }
+    };
+    let mut worst = 0.0f64;
+    for i in 0..5 {
+        for j in 0..5 {
+            let at = |r: [f64; 2], k: i32| r[0] + (r[1] - r[0]) * f64::from(k) / 4.0;
+            let (tx, ty) = (at(rays[0], i), at(rays[1], j));
+            let img = |d: Vec3| [d[0] - tx * d[2], d[1] - ty * d[2]];
+            let (bi, ci) = (img(b), img(c));
+            let det = libm::fabs(bi[0] * ci[1] - bi[1] * ci[0]);
+            let need = [
+                bi,
+                ci,
+                [bi[0] + ci[0], bi[1] + ci[1]],
+                [bi[0] - ci[0], bi[1] - ci[1]],
+            ]
+            .iter()
+            .map(|v| band(v[0], v[1], det).min(band(v[1], v[0], det)))
+            .fold(f64::INFINITY, f64::min)
+            .min(
+                (libm::fabs(bi[0]) + libm::fabs(ci[0])).max(libm::fabs(bi[1]) + libm::fabs(ci[1])),
+            );
+            worst = worst.max(need);
+        }
+    }
+    worst
+}
+
 /// `out[s][k] = round(dot(rows[k], off(s)))` for each child slot `s < ρ³` of a cell of side
 /// `parent`, `off(s)` being the slot centre's offset from the cell's centre and `round` what the
 /// caller makes of a dot product (scale, round to an integer): the displacement tables of a
@@ -335,6 +450,7 @@ impl TgFrame {
         let world_side = side * placement.scale;
         let (rxm, rym, rwm) = (row(&a[0]), row(&a[1]), row(&a[2]));
         let [rr, rb] = projection.right_bottom();
+        let footprint = footprint(header, placement, camera, opts.kernel);
         let mut cell = side; // model units
         for level in 0..=usize::from(header.depth) {
             if level > 0 {
@@ -361,10 +477,6 @@ impl TgFrame {
             let k = cell * (world_side / side) * f * scale;
             let stop_side_px = (cutoff / libm::sqrt(3.0)).max(cutoff.min(1.0));
             lod_w[level] = to_i32((k / stop_side_px).max(f64::from(camera_near_w)));
-            let footprint = match opts.kernel {
-                Kernel::Square => FOOTPRINT,
-                Kernel::Round => FOOTPRINT_ROUND,
-            };
             let k_q8 = k * footprint * f64::from(crate::fixed::ONE_PX_Q8);
             let mut shift = 0u32;
             let mut kk = k_q8;

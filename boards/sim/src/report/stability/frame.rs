@@ -7,7 +7,6 @@ use pocketsplat_core::camera::{self, Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::shade::{ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
-use pocketsplat_core::tg::frame::FOOTPRINT;
 use pocketsplat_core::tg::{render_tg, TgFrame};
 
 use super::outcome::{Outcome, BOUNDS_SLACK_PX, MAX_ERROR_PX};
@@ -160,6 +159,7 @@ pub(super) fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Mea
             model_boxes,
             truth,
             table: &table,
+            footprint: shot.footprint(),
             inner: ShadedRaster {
                 fb: &mut framebuffer,
                 table: &table,
@@ -200,7 +200,7 @@ pub(super) fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let mut o = m.outcome();
     let b = shot.baked;
     let leaf = b.side.len() - 1;
-    let half = 0.5 * FOOTPRINT * b.side[leaf] * shot.placement.scale;
+    let half = 0.5 * shot.footprint() * b.side[leaf] * shot.placement.scale;
     let cam = &shot.camera;
     // A leaf straddling the plane may be drawn or not (its centre decides): only leaves wholly
     // beyond it must be.

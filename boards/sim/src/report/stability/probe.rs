@@ -3,10 +3,9 @@
 
 use pocketsplat_core::camera::{Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::fixed::ONE_PX_Q8;
-use pocketsplat_core::raster::{drawn_pixels, Kernel, MAX_SPLAT_PX};
+use pocketsplat_core::raster::{drawn_pixels, MAX_SPLAT_PX};
 use pocketsplat_core::shade::ShadingTable;
 use pocketsplat_core::splat::{SampleSplat, SplatSink};
-use pocketsplat_core::tg::frame::{FOOTPRINT, FOOTPRINT_ROUND};
 
 use super::outcome::{BOUNDS_SLACK_PX, MAX_ERROR_PX};
 use super::shot::{model_to_camera, screen_box, ShadowTruth, Shot};
@@ -99,6 +98,8 @@ pub(super) struct Probe<'a, S> {
     pub(super) truth: Option<ShadowTruth<'a>>,
     /// The frame's shading table (the lit and shadowed colour of a sample).
     pub(super) table: &'a ShadingTable<1>,
+    /// A drawn cell's splat over its projected side (`pocketsplat_core::tg::frame::footprint`).
+    pub(super) footprint: f64,
     /// The raster behind the probe.
     pub(super) inner: S,
     /// What the checks found so far.
@@ -148,14 +149,10 @@ impl<S: SplatSink> SplatSink for Probe<'_, S> {
             Some([cx, cy, cz]) if cz > 0.0 => off(p).min(off(cam.screen(cx, cy, cz))),
             _ => off(p),
         };
-        // The footprint (`pocketsplat_core::tg::frame`): FOOTPRINT × the projected side of an
+        // The footprint (`pocketsplat_core::tg::frame::footprint`) × the projected side of an
         // exact splat; the bounding sphere's diameter otherwise.
         let size_true = if s.exact {
-            let k = match shot.opts.kernel {
-                Kernel::Square => FOOTPRINT,
-                Kernel::Round => FOOTPRINT_ROUND,
-            };
-            k * shot.baked.side[l] * shot.placement.scale * cam.focal_px / z
+            self.footprint * shot.baked.side[l] * shot.placement.scale * cam.focal_px / z
         } else {
             2.0 * radius * cam.focal_px / z
         };

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use pocketsplat_core::camera::{self, View};
+use pocketsplat_core::camera::{self, View, WIDTH};
 use pocketsplat_core::tg::frame::PRECISION_ERROR_PX;
 use pocketsplat_core::tg::TgFrame;
 
@@ -109,6 +109,24 @@ pub(super) fn shapes(r: &mut Runner) {
                     check(&shot)
                 }
             });
+        }
+        // The grid turned in the image: squares of the projected side would leave pixel centres
+        // between them (a turn of 45° needs √2 sides); the flat model's footprint must not.
+        for (az, el) in [
+            (0.0, 90.0),
+            (20.0, 70.0),
+            (45.0, 60.0),
+            (30.0, 20.0),
+            (-45.0, 30.0),
+        ] {
+            for cutoff in [1.0, 4.0, 8.0, 16.0] {
+                let name = format!("flat plane turned, AZ {az} EL {el}, {cutoff} px: no holes");
+                r.case(&name, || {
+                    let mut shot = Shot::orbit(&b, View::new(az, el, 2.0), 45.0);
+                    shot.opts.cutoff_px = cutoff;
+                    plane_holes(&shot)
+                });
+            }
         }
     }
     // Needle.
@@ -240,4 +258,55 @@ pub(super) fn shapes(r: &mut Runner) {
             },
         );
     }
+}
+
+/// Checks a frame of [`flat_plane`] (the square `|x|, |z| ≤ 1` at `y = 0`, identity placement)
+/// for holes: pixel centres whose ray meets the plane inside it (0.1 in from its edges, where the
+/// coarse cells' centroids move in) that no splat covers.
+fn plane_holes(shot: &Shot<'_>) -> Outcome {
+    let m = shoot(shot);
+    let mut o = m.outcome();
+    let cam = &shot.camera;
+    let (cx, cy) = cam.viewport.center();
+    let covered = m.fb.covered();
+    let mut inside = 0usize;
+    let mut holes = Vec::new();
+    for (i, &c) in covered.iter().enumerate() {
+        let (px, py) = ((i % WIDTH) as f64 + 0.5, (i / WIDTH) as f64 + 0.5);
+        let d = camera::add(
+            camera::add(
+                camera::scale(cam.right, (px - cx) / cam.focal_px),
+                camera::scale(cam.up, (cy - py) / cam.focal_px),
+            ),
+            cam.forward,
+        );
+        let t = -cam.eye[1] / d[1];
+        let hit = camera::add(cam.eye, camera::scale(d, t));
+        if t > cam.near && hit[0].abs() <= 0.9 && hit[2].abs() <= 0.9 {
+            inside += 1;
+            if !c {
+                holes.push((i % WIDTH, i / WIDTH));
+            }
+        }
+    }
+    o.worst = holes.len() as f64;
+    o.unit = "holes";
+    o.limit = 0.0;
+    let _ = write!(
+        o.notes,
+        "; {} of the plane's {inside} pixel centres uncovered, footprint {:.3} sides",
+        holes.len(),
+        shot.footprint()
+    );
+    if inside == 0 {
+        o.fail("the plane covers no pixel centre: nothing checked");
+    }
+    if !holes.is_empty() {
+        o.fail(format!(
+            "{} pixel centres on the plane uncovered, first at {:?}",
+            holes.len(),
+            holes[0]
+        ));
+    }
+    o
 }
