@@ -202,15 +202,16 @@ pub(crate) fn round_to_i32(x: f64) -> i32 {
     }
 }
 
-/// A drawn cell's splat side (square) or diameter (round) over its projected side:
-/// [`FOOTPRINT`] or [`FOOTPRINT_ROUND`], times [`flat_grid_cover`] for a flat model.
+/// A drawn cell's splat side (square) or diameter (round) over its projected side: [`FOOTPRINT`]
+/// or [`FOOTPRINT_ROUND`], or for a flat model [`flat_grid_cover`] (the round kernel's disc of the
+/// same area).
 ///
 /// A model whose bounds are thinner than half a leaf cell along an axis is flat: its cells' patches
 /// are their faces across that axis, one grid, whose image the view turns and shears. Squares of
 /// the projected side leave pixel centres uncovered between them where the grid is turned (a 45°
-/// turn needs √2 sides) and cover each other many times over where it is foreshortened; the grid's
-/// own cover gives the side that is just enough. Any other model's cells face every way, and keep
-/// the base factor.
+/// turn needs √2 sides) and overlap where it is foreshortened; the grid's own cover gives the side
+/// that is enough, perspective included, so it needs no `FOOTPRINT` margin. Any other model's
+/// cells face every way, and keep `FOOTPRINT`.
 pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel: Kernel) -> f64 {
     let base = match kernel {
         Kernel::Square => FOOTPRINT,
@@ -249,7 +250,7 @@ pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel
             return base; // off the image: nothing to draw
         }
     }
-    base * flat_grid_cover(axis, placement, camera, rays)
+    base / FOOTPRINT * flat_grid_cover(axis, placement, camera, rays)
 }
 
 /// The side, in projected cell sides, of axis-aligned squares centred on the cells of a flat grid
@@ -261,8 +262,12 @@ pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel
 /// lattice vector `v` with `|v_x| ≤ S` covers a band `S − |v_y|` tall about its line, and the
 /// rows lie `|B × C| / |v_x|` apart vertically: they cover the plane when
 /// `S ≥ max(|v_x|, |v_y| + |B × C| / |v_x|)` (or the same with x and y swapped, for columns).
-/// The least such `S` over `v ∈ {B, C, B + C, B − C}`, at the worst of a 5 × 5 grid of rays over
-/// `rays` (`[t_x range, t_y range]`), at most the lattice cell's bounding box.
+/// The least such `S` over `v ∈ {B, C, B + C, B − C}`, at most the lattice cell's bounding box, at
+/// the worst of the corners, edge midpoints and centre of `rays` (`[t_x range, t_y range]`). The
+/// rule is sufficient rather than tight (it asks for more than the squares need), which covers the
+/// rays between the nine: 5 × 5 rays left the Big Scene's holes exactly as nine do, and only grew
+/// the `std` view's ground (0.03 dB lower), at nearly three times the set-up (soft float on a
+/// Cortex-M).
 pub fn flat_grid_cover(
     axis: usize,
     placement: &Placement,
@@ -284,9 +289,9 @@ pub fn flat_grid_cover(
         }
     };
     let mut worst = 0.0f64;
-    for i in 0..5 {
-        for j in 0..5 {
-            let at = |r: [f64; 2], k: i32| r[0] + (r[1] - r[0]) * f64::from(k) / 4.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let at = |r: [f64; 2], k: i32| r[0] + (r[1] - r[0]) * f64::from(k) / 2.0;
             let (tx, ty) = (at(rays[0], i), at(rays[1], j));
             let img = |d: Vec3| [d[0] - tx * d[2], d[1] - ty * d[2]];
             let (bi, ci) = (img(b), img(c));
