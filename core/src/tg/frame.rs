@@ -235,7 +235,7 @@ pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel
     for corner in 0..8 {
         let p: Vec3 = core::array::from_fn(|k| if corner >> k & 1 != 0 { hi[k] } else { lo[k] });
         let v = camera.to_camera(placement.apply(p));
-        if !(v[2] > 0.0) {
+        if v[2].is_nan() || v[2] <= 0.0 {
             rays = image;
             break;
         }
@@ -246,7 +246,7 @@ pub fn footprint(header: &Header, placement: &Placement, camera: &Camera, kernel
     }
     for k in 0..2 {
         rays[k] = [rays[k][0].max(image[k][0]), rays[k][1].min(image[k][1])];
-        if !(rays[k][0] <= rays[k][1]) {
+        if rays[k][0].is_nan() || rays[k][1].is_nan() || rays[k][0] > rays[k][1] {
             return base; // off the image: nothing to draw
         }
     }
