@@ -34,10 +34,10 @@
 //! That holds where the surface's cells line up with the image's axes. A flat model (a ground)
 //! is one grid of faces, and a view that turns it (the Big Scene from `top`, 20° of azimuth) puts
 //! the faces' images on a turned lattice that squares of the projected side do not cover: pixel
-//! centres fall between them in dotted diagonal lines. For a flat model the side is scaled by
-//! [`flat_grid_cover`], the least square that covers the grid's image at every ray the model
-//! spans ([`footprint`]); where the grid is foreshortened that is less than one side, so the
-//! splats also overlap less.
+//! centres fall between them in dotted diagonal lines. A flat model's square is instead
+//! [`flat_grid_cover`] sides, enough to cover the grid's image at the rays the model spans
+//! ([`footprint`]); where the grid is foreshortened that is less than 1.1 sides, so its splats
+//! also overlap less.
 
 use super::read::Header;
 use super::MAX_LEVELS;
