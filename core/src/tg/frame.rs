@@ -274,12 +274,10 @@ pub fn flat_grid_cover(
     camera: &Camera,
     rays: [[f64; 2]; 2],
 ) -> f64 {
-    let r = &placement.rotation;
-    let view = |m: usize| {
-        let d = [r[0][m], r[1][m], r[2][m]];
-        let dot = |a: Vec3| a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
-        [dot(camera.right), dot(camera.up), dot(camera.forward)]
-    };
+    // Model axis `m` in view coordinates: component `m` of each camera axis in the model's frame.
+    let [right, up, forward] =
+        [camera.right, camera.up, camera.forward].map(|d| placement.to_model_dir(d));
+    let view = |m: usize| [right[m], up[m], forward[m]];
     let (b, c) = (view((axis + 1) % 3), view((axis + 2) % 3));
     let band = |along: f64, across: f64, det: f64| {
         if libm::fabs(along) < 1e-9 {

@@ -7,6 +7,7 @@ use pocketsplat_core::camera::{self, Vec3, HEIGHT, WIDTH};
 use pocketsplat_core::shade::{ShadingTable, DEFAULT_MATERIAL};
 use pocketsplat_core::shadow::{render_tg_shadowed, LightFrame, ShadowMap, ShadowMode};
 use pocketsplat_core::splat::{ShadedRaster, Stats};
+use pocketsplat_core::tg::frame::footprint;
 use pocketsplat_core::tg::{render_tg, TgFrame};
 
 use super::outcome::{Outcome, BOUNDS_SLACK_PX, MAX_ERROR_PX};
@@ -25,6 +26,8 @@ pub struct Measured {
     /// The frame's near plane, world units: the camera's, or the frame's precision plane when that
     /// is farther (`TgFrame::near_depth`).
     pub near_depth: f64,
+    /// A drawn cell's splat over its projected side (`pocketsplat_core::tg::frame::footprint`).
+    pub footprint: f64,
 }
 
 impl Measured {
@@ -149,6 +152,7 @@ pub(super) fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Mea
         to_model(camera::scale(shot.camera.forward, -1.0)),
     );
     let mut shadow = Vec::new();
+    let footprint = footprint(h, &shot.placement, &shot.camera, shot.opts.kernel);
     let stats;
     let measured;
     {
@@ -159,7 +163,7 @@ pub(super) fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Mea
             model_boxes,
             truth,
             table: &table,
-            footprint: shot.footprint(),
+            footprint,
             inner: ShadedRaster {
                 fb: &mut framebuffer,
                 table: &table,
@@ -183,6 +187,7 @@ pub(super) fn shoot_with(shot: &Shot<'_>, truth: Option<ShadowTruth<'_>>) -> Mea
         fb,
         checks: measured,
         near_depth: frame.near_depth(),
+        footprint,
     }
 }
 
@@ -200,7 +205,7 @@ pub(super) fn check_drawn(shot: &Shot<'_>) -> Outcome {
     let mut o = m.outcome();
     let b = shot.baked;
     let leaf = b.side.len() - 1;
-    let half = 0.5 * shot.footprint() * b.side[leaf] * shot.placement.scale;
+    let half = 0.5 * m.footprint * b.side[leaf] * shot.placement.scale;
     let cam = &shot.camera;
     // A leaf straddling the plane may be drawn or not (its centre decides): only leaves wholly
     // beyond it must be.

@@ -32,18 +32,6 @@ impl<'a> Shot<'a> {
         Self::placed(baked, Placement::IDENTITY, view, fov_deg)
     }
 
-    /// A drawn cell's splat over its projected side, as the frame sets it
-    /// (`pocketsplat_core::tg::frame::footprint`).
-    pub fn footprint(&self) -> f64 {
-        let tg = self.baked.tg();
-        pocketsplat_core::tg::frame::footprint(
-            tg.header(),
-            &self.placement,
-            &self.camera,
-            self.opts.kernel,
-        )
-    }
-
     /// An orbit view around the placed model's bounding sphere.
     pub fn placed(baked: &'a Baked, placement: Placement, view: View, fov_deg: f64) -> Self {
         let camera = Camera::orbit(world_sphere(baked.bounds(), &placement), view, fov_deg);

@@ -296,7 +296,7 @@ fn plane_holes(shot: &Shot<'_>) -> Outcome {
         o.notes,
         "; {} of the plane's {inside} pixel centres uncovered, footprint {:.3} sides",
         holes.len(),
-        shot.footprint()
+        m.footprint
     );
     if inside == 0 {
         o.fail("the plane covers no pixel centre: nothing checked");
